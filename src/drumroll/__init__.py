@@ -1,0 +1,26 @@
+"""drumroll: the sound of a bouncing drumstick turned into physics with honest error bars.
+
+The data's path through the package:
+
+``audio`` / ``onsets``
+    read recordings and extract impact times with their timing uncertainty;
+``physics``
+    stick geometry and the forward models (power law, small-angle and exact pendulum);
+``inference``
+    priors, likelihood, sampling and model comparison;
+``reporting``
+    tables and figures;
+``cli``
+    the ``drumroll`` command.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("drumroll")
+except PackageNotFoundError:  # running from a source tree that was never installed
+    __version__ = "0+unknown"
+
+__all__ = ["__version__"]

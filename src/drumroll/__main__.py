@@ -1,0 +1,5 @@
+"""``python -m drumroll``: the same as the ``drumroll`` command."""
+
+from drumroll.cli.main import main
+
+raise SystemExit(main())

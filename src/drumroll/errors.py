@@ -1,0 +1,38 @@
+"""Errors a user can act on.
+
+Every problem caused by the user's input (a config key, a file, an option) is raised as a
+:class:`DrumrollError`. The command line prints its message on one line and exits with
+:attr:`DrumrollError.exit_code` (2: usage or input error), never with a traceback.
+"""
+
+from __future__ import annotations
+
+
+class DrumrollError(Exception):
+    """A problem with the user's input, reported as one line.
+
+    Parameters
+    ----------
+    message
+        What is wrong and, where it helps, what to do; one line, no trailing period needed.
+    exit_code
+        Process exit status for the command line (2 for usage and input errors).
+    """
+
+    exit_code: int = 2
+
+    def __init__(self, message: str, exit_code: int = 2) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+class ConfigError(DrumrollError):
+    """An invalid configuration file or value; the message names the key."""
+
+
+class AudioError(DrumrollError):
+    """An audio file that cannot be read or holds nothing usable."""
+
+
+class DrumrollWarning(UserWarning):
+    """Something the user should know about that does not stop the work (clipping, say)."""
