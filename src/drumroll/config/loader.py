@@ -1,0 +1,240 @@
+"""Reading and validating a config file.
+
+The format (lengths in mm, times in s, speeds in m/s, as in the paper's tables)::
+
+    model = "pendulum"            # "powerlaw" | "small-angle" | "pendulum"
+    compare = ["small-angle"]     # models to compare against
+    gravity_m_s2 = 9.81           # optional
+
+    [stick]                       # needed by small-angle and pendulum
+    shape = "cylinder-cone"       # or "thin-rod"
+    length_mm = 348               # l1 (thin-rod: the whole length L)
+    tip_mm = 60                   # l2 (cylinder-cone only)
+    radius_mm = 7.5               # (cylinder-cone only)
+
+    [priors]                      # a number fixes a parameter; a table gives a distribution
+    alpha = { dist = "uniform", low = 0.5, high = 1.0 }
+    pivot_mm = { dist = "normal", mu = 131, sigma = 2 }
+    ...
+
+Stick dimensions may also be distributions (``length_mm = { dist = "normal", mu = 348,
+sigma = 1 }``), which ``predict`` propagates. Sections added by later stages (``[simulate]``,
+…) are parsed by the functions registered in :data:`SECTION_PARSERS`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drumroll.config.priors_section import parse_prior
+from drumroll.config.validate import check_keys, number, string, table
+from drumroll.errors import ConfigError
+from drumroll.inference.priors import Fixed, Prior
+from drumroll.parameters import DEFAULT_VALUES, MODEL_PARAMETERS, PARAMETERS, STICK_DIMENSIONS
+from drumroll.physics import GEOMETRIC_MODELS, MODELS, STANDARD_GRAVITY, STICK_SHAPES
+from drumroll.physics.geometry import StickGeometry
+
+#: Extra sections: name → "module:function"; the function takes (table, where) and returns
+#: the parsed section, raising ConfigError with the key's path on bad input.
+SECTION_PARSERS: dict[str, str] = {}
+
+_TOP_LEVEL = ("model", "compare", "gravity_m_s2", "stick", "priors")
+
+
+@dataclass(frozen=True)
+class StickSpec:
+    """The ``[stick]`` section: a shape and dimensions that may be uncertain (SI units)."""
+
+    shape: str
+    length: Prior
+    tip: Prior = field(default_factory=lambda: Fixed(0.0))
+    radius: Prior = field(default_factory=lambda: Fixed(0.0))
+
+    def nominal(self) -> StickGeometry:
+        """The stick at the median of each dimension."""
+        return StickGeometry(self.shape, self.length.median(), self.tip.median(),
+                             self.radius.median())
+
+    def sample(self, rng: np.random.Generator, size: int) -> StickGeometry:
+        """``size`` sticks with dimensions drawn from their priors (arrays of length size)."""
+        return StickGeometry(self.shape, self.length.sample(rng, size),
+                             self.tip.sample(rng, size), self.radius.sample(rng, size))
+
+
+@dataclass(frozen=True)
+class Config:
+    """A validated config, in SI units.
+
+    Attributes
+    ----------
+    model
+        The main forward model.
+    compare
+        Models to compare the main one against (never contains ``model``).
+    priors
+        Prior per parameter by internal (SI) name, e.g. ``priors["pivot"]``; parameters the
+        config leaves out take :data:`~drumroll.parameters.DEFAULT_VALUES`.
+    stick
+        The stick, or None when no model needs one.
+    gravity
+        g (m/s²).
+    sections
+        Parsed extra sections (see :data:`SECTION_PARSERS`).
+    raw
+        The file's content as read, for reports.
+    path
+        Where it was read from, if anywhere.
+    """
+
+    model: str
+    compare: tuple[str, ...]
+    priors: dict[str, Prior]
+    stick: StickSpec | None
+    gravity: float = STANDARD_GRAVITY
+    sections: dict[str, Any] = field(default_factory=dict)
+    raw: dict[str, Any] = field(default_factory=dict)
+    path: Path | None = None
+
+    @property
+    def models(self) -> tuple[str, ...]:
+        """The main model followed by the compared ones."""
+        return (self.model, *self.compare)
+
+    def has_prior(self, key: str) -> bool:
+        """Whether the file gave ``key`` (a config name such as ``"t_b"``) a value or prior."""
+        return key in self.raw.get("priors", {})
+
+
+def load_config(path: str | Path) -> Config:
+    """Read and validate the config file at ``path``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file and the key: malformed TOML (with line and column), unknown
+        keys (with a suggestion), wrong types, empty or inverted ranges, values outside their
+        physical range, a pivot past the centre of mass, a height the tip cannot reach.
+    """
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such config file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, expected a TOML config file") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a text file (expected TOML)") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    try:
+        return parse_config(raw, path=path)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+
+
+def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
+    """Validate an already-parsed TOML document (see :func:`load_config`)."""
+    raw = dict(raw)
+    check_keys(raw, (*_TOP_LEVEL, *SECTION_PARSERS), "")
+    model = string(raw.get("model", "pendulum"), "model", MODELS)
+    compare = _parse_compare(raw.get("compare", []), model)
+    gravity = float(number(raw.get("gravity_m_s2", STANDARD_GRAVITY), "gravity_m_s2",
+                           positive=True))
+    models = (model, *compare)
+    geometric = [m for m in models if m in GEOMETRIC_MODELS]
+    stick = _parse_stick(table(raw["stick"], "stick")) if "stick" in raw else None
+    if geometric and stick is None:
+        raise ConfigError(f"stick: missing section (the {geometric[0]} model needs the "
+                          "stick's shape and size)")
+    priors = _parse_priors(table(raw.get("priors", {}), "priors"), models)
+    if stick is not None and all(k in priors for k in ("pivot", "height")):
+        _check_geometry(stick, priors)
+    sections = {name: _section_parser(name)(table(raw[name], name), name)
+                for name in SECTION_PARSERS if name in raw}
+    return Config(model=model, compare=compare, priors=priors, stick=stick, gravity=gravity,
+                  sections=sections, raw=raw, path=path)
+
+
+def _parse_compare(value: Any, model: str) -> tuple[str, ...]:
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list):
+        raise ConfigError(f"compare: expected a list of model names, got {value!r}")
+    names = [string(v, f"compare[{i}]", MODELS) for i, v in enumerate(value)]
+    return tuple(dict.fromkeys(n for n in names if n != model))
+
+
+def _parse_stick(section: dict[str, Any]) -> StickSpec:
+    shape = string(section.get("shape", "cylinder-cone"), "stick.shape", STICK_SHAPES)
+    allowed = ("shape", "length_mm") if shape == "thin-rod" else ("shape", *STICK_DIMENSIONS)
+    for key in section:
+        if key in STICK_DIMENSIONS and key not in allowed:
+            raise ConfigError(f"stick.{key}: only for shape = \"cylinder-cone\" (this stick is "
+                              f"a {shape})")
+    check_keys(section, allowed, "stick")
+    dims = {}
+    for key in allowed[1:]:
+        if key not in section:
+            raise ConfigError(f"stick.{key}: missing (the {shape} shape needs the "
+                              f"{STICK_DIMENSIONS[key].description})")
+        dims[STICK_DIMENSIONS[key].name] = parse_prior(section[key], STICK_DIMENSIONS[key],
+                                                       f"stick.{key}")
+    return StickSpec(shape=shape, **dims)
+
+
+def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str, Prior]:
+    check_keys(section, PARAMETERS, "priors")
+    priors = {PARAMETERS[key].name: parse_prior(value, PARAMETERS[key], f"priors.{key}")
+              for key, value in section.items()}
+    for model in models:
+        for key in MODEL_PARAMETERS[model]:
+            spec = PARAMETERS[key]
+            if spec.name in priors:
+                continue
+            if key not in DEFAULT_VALUES:
+                raise ConfigError(f"priors.{key}: missing (the {model} model needs the "
+                                  f"{spec.description})")
+            priors[spec.name] = Fixed(DEFAULT_VALUES[key] * spec.to_si)
+    return priors
+
+
+def _check_geometry(stick: StickSpec, priors: dict[str, Prior]) -> None:
+    """The nominal set-up must be able to drop and bounce (checked at the priors' medians)."""
+    geometry = stick.nominal()
+    pivot, height = priors["pivot"].median(), priors["height"].median()
+    total, centre, _ = (float(v) for v in geometry.mass_properties(pivot))
+    mm = 1e3
+    if pivot >= centre:
+        raise ConfigError(f"priors.pivot_mm: a pivot at {pivot * mm:g} mm is at or beyond the "
+                          f"centre of mass (l_C = {centre * mm:.1f} mm), so the stick would not "
+                          "fall; the pivot must lie between the butt and the centre of mass")
+    reach = total - pivot
+    if height >= reach:
+        raise ConfigError(f"priors.height_mm: the tip cannot reach the drumhead from "
+                          f"h = {height * mm:g} mm with the pivot at d = {pivot * mm:g} mm "
+                          f"(needs h < L - d = {reach * mm:.1f} mm)")
+    angle = priors.get("release_angle", Fixed(0.0)).median()
+    contact = math.asin(height / reach)
+    if angle >= contact:
+        raise ConfigError(f"priors.release_angle_deg: a release at {math.degrees(angle):g}° is "
+                          f"at or below the contact angle ({math.degrees(contact):.1f}°), so "
+                          "the stick would start on the drumhead")
+
+
+def _section_parser(name: str) -> Callable[[dict[str, Any], str], Any]:
+    module, _, function = SECTION_PARSERS[name].partition(":")
+    return getattr(importlib.import_module(module), function)
+
+

@@ -1,0 +1,1 @@
+"""Inference: priors, likelihood, sampling and model comparison."""
