@@ -1,0 +1,83 @@
+"""``drumroll predict CONFIG.toml``: the "computed t_B" of the paper's tables."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import warnings
+
+from drumroll.config import load_config
+from drumroll.errors import DrumrollError, DrumrollWarning
+from drumroll.inference.prior_predictive import Prediction, predictable_models, propagate
+from drumroll.reporting.numbers import format_value_error
+
+_LABELS = {"t_c": ("t_C", "s"), "t_b": ("t_B", "s"), "theta_c": ("θ_C", "deg"),
+           "omega_c": ("ω_C", "rad/s"), "contact_tip_speed_m_s": ("tip speed", "m/s")}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``predict`` subcommand."""
+    parser = subparsers.add_parser(
+        "predict", help="propagate the priors through the models (computed t_B)",
+        description="Propagate the config's priors (measured geometry with its ±) by Monte "
+        "Carlo through the small-angle and exact pendulum models (and the power law when t_b "
+        "has a prior), and print t_C, t_B, θ_C, ω_C and the first flight times as mean ± sd.")
+    parser.add_argument("config", help="TOML config file")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.add_argument("-n", "--flights", type=_positive_int, default=5, metavar="N",
+                        help="number of flight times to print (default 5)")
+    parser.add_argument("--draws", type=_positive_int, default=20_000,
+                        help="Monte Carlo draws (default 20000)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.set_defaults(func=run)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``predict``."""
+    config = load_config(args.config)
+    models = predictable_models(config)
+    if not models:
+        raise DrumrollError(f"{args.config}: nothing to predict: give a [stick] section (for the "
+                            "pendulum models) or a prior for t_b (for the power law)")
+    predictions = [propagate(config, m, n_flights=args.flights, n_draws=args.draws,
+                             seed=args.seed) for m in models]
+    for p in predictions:
+        if p.invalid_reasons:
+            reason = max(p.invalid_reasons, key=p.invalid_reasons.get)
+            warnings.warn(f"{p.model}: {1 - p.valid_fraction:.1%} of the draws were dropped: "
+                          f"{reason}", DrumrollWarning, stacklevel=1)
+    if args.json:
+        print(json.dumps({p.model: p.summary() for p in predictions}, indent=2))
+    else:
+        print(_table(predictions, args))
+    return 0
+
+
+def _table(predictions: list[Prediction], args: argparse.Namespace) -> str:
+    lines = [f"{args.config}: prior propagation, {args.draws} draws (seed {args.seed}); "
+             "mean ± sd"]
+    for p in predictions:
+        lines.append(f"\n{p.model}")
+        summary = p.summary()
+        for name, (label, unit) in _LABELS.items():
+            if name not in summary:
+                continue
+            mean, sd = summary[name]["mean"], summary[name]["sd"]
+            if unit == "deg":
+                mean, sd = math.degrees(mean), math.degrees(sd)
+            lines.append(f"  {label:<10} {format_value_error(mean, sd, unit=unit)}")
+        flights = summary["flights_s"]
+        for k, (mean, sd) in enumerate(zip(flights["mean"], flights["sd"], strict=True), 1):
+            lines.append(f"  {'T_' + str(k):<10} {format_value_error(mean, sd, unit='s')}")
+    return "\n".join(lines)

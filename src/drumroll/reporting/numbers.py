@@ -1,0 +1,60 @@
+"""Numbers as a physicist writes them: ``0.86 ± 0.01``, the value rounded to its error."""
+
+from __future__ import annotations
+
+import math
+
+
+def error_decimals(err: float, significant: int | None = None) -> int:
+    """Decimal places that keep one or two significant digits of ``err``.
+
+    Parameters
+    ----------
+    err
+        The uncertainty (> 0).
+    significant
+        Significant digits of the error to keep; by default two when its leading digit is 1
+        or 2 (so 0.014 stays 0.014, not 0.01), otherwise one (the Particle Data Group habit).
+
+    Returns
+    -------
+    int
+        Number of decimals (negative to round to tens, hundreds, …).
+    """
+    exponent = math.floor(math.log10(abs(err)))
+    if significant is None:
+        leading = abs(err) / 10.0**exponent
+        significant = 2 if leading < 3 else 1
+    return significant - 1 - exponent
+
+
+def format_value_error(value: float, err: float, significant: int | None = None,
+                       unit: str = "") -> str:
+    """``value ± err`` with the error rounded to one or two significant digits.
+
+    >>> format_value_error(0.2509, 0.0061)
+    '0.251 ± 0.006'
+    >>> format_value_error(0.8612, 0.0123)
+    '0.861 ± 0.012'
+    >>> format_value_error(131.2, 2.0, significant=1, unit="mm")
+    '131 ± 2 mm'
+    """
+    suffix = f" {unit}" if unit else ""
+    if not math.isfinite(value):
+        return f"{value}{suffix}"
+    if not (math.isfinite(err) and err > 0):
+        return f"{value:.4g}{suffix}"
+    decimals = error_decimals(err, significant)
+    if decimals > 0:
+        return f"{value:.{decimals}f} ± {err:.{decimals}f}{suffix}"
+    step = 10.0 ** (-decimals)
+    return f"{round(value / step) * step:.0f} ± {round(err / step) * step:.0f}{suffix}"
+
+
+def round_to_error(value: float, err: float, significant: int | None = None
+                   ) -> tuple[float, float]:
+    """``(value, err)`` rounded as :func:`format_value_error` prints them."""
+    if not (math.isfinite(err) and err > 0 and math.isfinite(value)):
+        return value, err
+    decimals = error_decimals(err, significant)
+    return round(value, decimals), round(err, decimals)
