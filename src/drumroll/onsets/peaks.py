@@ -44,3 +44,42 @@ def local_maxima(z: np.ndarray, threshold: float, half_width: int) -> np.ndarray
         keep = np.concatenate(([True], np.diff(idx) > half_width))
         idx = idx[keep]
     return idx
+
+
+def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
+                   valid: slice | None = None) -> np.ndarray:
+    """Standardise ``odf`` by a slowly varying median and MAD.
+
+    The median and MAD are taken over segments of ``segment`` frames, then smoothed by a
+    running median over ``±reach`` segments, so a loud passage (the roll itself) sets its
+    own scale without letting the few frames of any one impact inflate it.
+
+    Parameters
+    ----------
+    odf
+        Detection function.
+    segment
+        Frames per segment.
+    reach
+        Segments either side in the running median.
+    valid
+        Frames whose values are meaningful (the rest are ignored in the statistics).
+    """
+    ref = odf if valid is None else odf[valid]
+    offset = 0 if valid is None else (valid.start or 0)
+    n_seg = max(1, int(np.ceil(ref.size / segment)))
+    med = np.empty(n_seg)
+    mad = np.empty(n_seg)
+    for i in range(n_seg):
+        part = ref[i * segment:(i + 1) * segment]
+        if part.size == 0:
+            med[i], mad[i] = med[i - 1], mad[i - 1]
+            continue
+        med[i] = np.median(part)
+        mad[i] = np.median(np.abs(part - med[i]))
+    if n_seg > 1:
+        med = ndimage.median_filter(med, size=2 * reach + 1, mode="nearest")
+        mad = ndimage.median_filter(mad, size=2 * reach + 1, mode="nearest")
+    sigma = np.maximum(MAD_TO_SIGMA * mad, 1e-3)
+    seg_of = np.clip((np.arange(odf.size) - offset) // segment, 0, n_seg - 1)
+    return (odf - med[seg_of]) / sigma[seg_of]

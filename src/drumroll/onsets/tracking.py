@@ -82,9 +82,9 @@ def _evidence(z: np.ndarray, p: TrackParams) -> np.ndarray:
     return np.minimum(z - p.evidence_z, p.evidence_max)
 
 
-def track(c: Candidates, params: TrackParams = TrackParams()) -> Track:
+def track(c: Candidates, params: TrackParams | None = None) -> Track:
     """Choose the bounce sequence among the candidates (see the module docstring)."""
-    p = params
+    p = params or TrackParams()
     n = len(c)
     if n == 0:
         return Track(np.zeros(0, dtype=np.int64), -math.inf, {})

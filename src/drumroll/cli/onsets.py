@@ -1,0 +1,57 @@
+"""``drumroll onsets AUDIO``: extract impact times (and their uncertainties) from a recording."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from drumroll import fileio
+from drumroll.onsets import detect
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``onsets`` subcommand."""
+    p = subparsers.add_parser(
+        "onsets", help="extract impact times from a recording",
+        description="Find the impacts of a drumroll (or any freely bouncing object) in a "
+        "recording, to the sample, each with its timing uncertainty. Without -o the CSV "
+        "(time_s,amplitude,snr_db,sigma_s,interval_s) is printed.")
+    p.add_argument("audio", metavar="AUDIO", help="recording (WAV, FLAC, OGG, MP3, ...)")
+    p.add_argument("-o", "--output", metavar="CSV", help="write the onset table here")
+    p.add_argument("--labels", metavar="TXT", help="also write an Audacity label track")
+    p.add_argument("--plot", metavar="PNG", help="also draw the waveform with the onsets")
+    p.add_argument("--all-candidates", action="store_true",
+                   help="list rejected candidates too, each with the reason")
+    p.add_argument("--highpass", type=float, default=None, metavar="HZ",
+                   help="lowest frequency analysed (default 150 Hz)")
+    p.add_argument("--threshold", type=float, default=5.0, metavar="Z",
+                   help="significance for a candidate, in robust standard deviations "
+                   "(default 5)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``drumroll onsets``."""
+    # Refuse to clobber before doing the work, not after it.
+    for path in (args.output, args.labels, args.plot):
+        if path:
+            fileio.check_writable(path, overwrite=args.force)
+    options = {} if args.highpass is None else {"highpass_hz": args.highpass}
+    table = detect(args.audio, threshold=args.threshold, all_candidates=args.all_candidates,
+                   **options)
+    csv = table.to_csv(all_candidates=args.all_candidates)
+    if args.output:
+        fileio.write_text(args.output, csv, overwrite=args.force)
+    else:
+        sys.stdout.write(csv)
+    if args.labels:
+        fileio.write_text(args.labels, table.to_labels(), overwrite=args.force)
+    if args.plot:
+        from drumroll.reporting.onset_plot import write_onset_plot
+
+        write_onset_plot(args.plot, args.audio, table, overwrite=args.force)
+    if args.output:
+        print(f"drumroll: {len(table)} impacts from {table.time_s[0]:.4f} s to "
+              f"{table.time_s[-1]:.4f} s written to {args.output}", file=sys.stderr)
+    return 0
