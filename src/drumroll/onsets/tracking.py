@@ -52,6 +52,8 @@ class TrackParams:
         Cap on one candidate's acoustic evidence (log units).
     skip_penalty
         Log odds against one bounce missing between two detected ones.
+    beam
+        Hypotheses kept per pair of consecutive onsets.
     min_onsets
         Fewest onsets that make a roll: three intervals give two ratios, one to predict and one
         to test.
@@ -63,9 +65,10 @@ class TrackParams:
     ratio_jitter: float = 0.05
     smoothing: float = 0.5
     evidence_z: float = 6.0
-    evidence_max: float = 4.0
+    evidence_max: float = 1.5
     skip_penalty: float = 3.0
     min_onsets: int = 4
+    beam: int = 4
 
 
 @dataclass
@@ -95,74 +98,86 @@ def track(c: Candidates, params: TrackParams | None = None) -> Track:
     jit2 = p.ratio_jitter ** 2
     norm = 0.5 * math.log(2.0 * math.pi)
 
-    # state (i, j) -> [score, previous state, running log ratio (nan: none yet), last interval]
-    states: dict[tuple[int, int], list] = {}
+    # Each state (i, j) keeps its ``beam`` best hypotheses (score, previous hypothesis,
+    # running log ratio or nan, last interval, state): the running ratio depends on the
+    # path, so the single best predecessor is not enough when a path starts on a stray sound.
+    states: dict[tuple[int, int], list[tuple]] = {}
     by_end: list[list[tuple[int, int]]] = [[] for _ in range(n)]
+
+    def offer(key: tuple[int, int], hyp: tuple) -> None:
+        hyps = states.get(key)
+        if hyps is None:
+            states[key] = [hyp]
+            by_end[key[1]].append(key)
+        elif len(hyps) < p.beam:
+            hyps.append(hyp)
+        else:
+            worst = min(range(len(hyps)), key=lambda h: hyps[h][0])
+            if hyp[0] > hyps[worst][0]:
+                hyps[worst] = hyp
+
     for i in range(n):
         hi = np.searchsorted(t, t[i] + p.max_interval_s, side="right")
         lo = np.searchsorted(t, t[i] + p.min_interval_s, side="left")
         for j in range(lo, hi):
-            states[(i, j)] = [w[i] + w[j], None, math.nan, t[j] - t[i]]
-            by_end[j].append((i, j))
+            offer((i, j), (w[i] + w[j], None, math.nan, t[j] - t[i], (i, j)))
 
+    first_gain = math.log(log_width / math.log(1.0 / p.min_ratio))
     for j in range(n):
         for key in by_end[j]:
-            score, _, rho, last = states[key]
             i = key[0]
-            lo = np.searchsorted(t, t[j] + max(p.min_ratio * last, p.min_interval_s))
-            hi = np.searchsorted(t, t[j] + 2.2 * last, side="right")
-            if hi <= lo:
-                continue
-            ks = np.arange(lo, hi)
-            new = t[ks] - t[j]
-            if math.isnan(rho):
-                ok = new <= last * math.exp(3.0 * p.ratio_jitter)
-                gain = np.where(ok, 0.0, -np.inf)
-                m_best = np.zeros(ks.size, dtype=np.int64)
-            else:
-                r = math.exp(rho)
-                tim2 = (sig2[j] + sig2[ks]) / new**2 + (sig2[i] + sig2[j]) / last**2
-                gains = []
-                for m in (0, 1):
-                    pred = last * sum(r ** q for q in range(1, m + 2))
-                    var = jit2 * (m + 1) + tim2
-                    dev = np.log(new / pred)
-                    gains.append(-0.5 * dev**2 / var - 0.5 * np.log(var) - norm + log_width
-                                 - m * p.skip_penalty)
-                stacked = np.vstack(gains)
-                m_best = np.argmax(stacked, axis=0)
-                gain = stacked.max(axis=0)
-            total = score + w[ks] + gain
-            for k, tot, m, dt in zip(ks.tolist(), total.tolist(), m_best.tolist(),
-                                     new.tolist(), strict=True):
-                if tot == -math.inf:
+            for hyp in states[key]:
+                score, _, rho, last, _ = hyp
+                lo = np.searchsorted(t, t[j] + max(p.min_ratio * last, p.min_interval_s))
+                hi = np.searchsorted(t, t[j] + 2.2 * last, side="right")
+                if hi <= lo:
                     continue
-                if m == 0:
-                    step = dt
-                else:  # one bounce bridged: dt = last (r + r^2), solve for r
-                    ratio = (-1.0 + math.sqrt(1.0 + 4.0 * dt / last)) / 2.0
-                    step = last * ratio * ratio
-                obs = math.log(step / last) if m == 0 else math.log(ratio)
-                rho_new = obs if math.isnan(rho) else (1 - p.smoothing) * rho + p.smoothing * obs
-                cur = states.get((j, k))
-                if cur is None:
-                    states[(j, k)] = [tot, key, rho_new, step]
-                    by_end[k].append((j, k))
-                elif tot > cur[0]:
-                    cur[0], cur[1], cur[2], cur[3] = tot, key, rho_new, step
+                ks = np.arange(lo, hi)
+                new = t[ks] - t[j]
+                if math.isnan(rho):
+                    # First ratio: only the prior on the restitution (a ratio in
+                    # [min_ratio, 1]) speaks, against the background.
+                    ok = new <= last * math.exp(3.0 * p.ratio_jitter)
+                    gain = np.where(ok, first_gain, -np.inf)
+                    m_best = np.zeros(ks.size, dtype=np.int64)
+                else:
+                    r = math.exp(rho)
+                    tim2 = (sig2[j] + sig2[ks]) / new**2 + (sig2[i] + sig2[j]) / last**2
+                    gains = []
+                    for m in (0, 1):
+                        pred = last * sum(r ** q for q in range(1, m + 2))
+                        var = jit2 * (m + 1) + tim2
+                        dev = np.log(new / pred)
+                        gains.append(-0.5 * dev**2 / var - 0.5 * np.log(var) - norm + log_width
+                                     - m * p.skip_penalty)
+                    stacked = np.vstack(gains)
+                    m_best = np.argmax(stacked, axis=0)
+                    gain = stacked.max(axis=0)
+                total = score + w[ks] + gain
+                for k, tot, m, dt in zip(ks.tolist(), total.tolist(), m_best.tolist(),
+                                         new.tolist(), strict=True):
+                    if tot == -math.inf:
+                        continue
+                    if m == 0:
+                        step, obs = dt, math.log(dt / last)
+                    else:  # one bounce bridged: dt = last (r + r^2), solve for r
+                        ratio = (-1.0 + math.sqrt(1.0 + 4.0 * dt / last)) / 2.0
+                        step, obs = last * ratio * ratio, math.log(ratio)
+                    rho_new = obs if math.isnan(rho) else \
+                        (1 - p.smoothing) * rho + p.smoothing * obs
+                    offer((j, k), (tot, hyp, rho_new, step, (j, k)))
 
-    best_key = max(states, key=lambda s: states[s][0]) if states else None
-    if best_key is None:
+    if not states:
         strongest = int(np.argmax(c.z))
         return Track(np.array([strongest]), float(w[strongest]), _reasons(c, [strongest]))
-    path = [best_key[1]]
-    key = best_key
-    while key is not None:
-        path.append(key[0])
-        key = states[key][1]
+    best = max((h for hyps in states.values() for h in hyps), key=lambda h: h[0])
+    path: list[int] = [best[4][1]]
+    hyp = best
+    while hyp is not None:
+        path.append(hyp[4][0])
+        hyp = hyp[1]
     index = sorted(set(path))
-    return Track(np.asarray(index, dtype=np.int64), float(states[best_key][0]),
-                 _reasons(c, index))
+    return Track(np.asarray(index, dtype=np.int64), float(best[0]), _reasons(c, index))
 
 
 def _reasons(c: Candidates, kept: list[int]) -> dict[int, str]:

@@ -1,0 +1,59 @@
+"""``drumroll onsets`` end to end: outputs, overwrite protection, bad inputs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import soundfile as sf
+
+from drumroll.cli.main import main
+from drumroll.onsets import COLUMNS, read_onsets
+from test_audio_io import BAD, _write_bad
+from test_onsets import synthetic_roll
+
+
+@pytest.fixture(scope="module")
+def roll_flac(tmp_path_factory):
+    x, sr, truth, _ = synthetic_roll(n=14, seed=21)
+    path = tmp_path_factory.mktemp("cli") / "roll.flac"
+    sf.write(path, x, sr, subtype="PCM_24")
+    return path, truth
+
+
+def test_stdout_csv(roll_flac, capsys):
+    path, truth = roll_flac
+    assert main(["onsets", str(path)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == ",".join(COLUMNS)
+    times = np.array([float(line.split(",")[0]) for line in out[1:]])
+    assert abs(times[0] - truth[0]) < 1e-3
+
+
+def test_files_plot_and_overwrite(roll_flac, tmp_path, capsys):
+    path, _ = roll_flac
+    csv, lab, png = tmp_path / "o.csv", tmp_path / "l.txt", tmp_path / "o.png"
+    args = ["onsets", str(path), "-o", str(csv), "--labels", str(lab), "--plot", str(png),
+            "--all-candidates"]
+    assert main(args) == 0
+    assert png.stat().st_size > 10_000
+    np.testing.assert_allclose(read_onsets(csv).time_s, read_onsets(lab).time_s, atol=1e-6)
+    before = csv.read_text()
+    capsys.readouterr()
+    assert main(args) == 2  # refuses to overwrite
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "already exists" in err[0]
+    assert csv.read_text() == before
+    assert main([*args, "--force"]) == 0
+
+
+@pytest.mark.parametrize("kind", [*BAD, "noise"])
+def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys, kind):
+    if kind == "noise":
+        path = tmp_path / "noise.wav"
+        sf.write(path, 0.1 * np.random.default_rng(0).standard_normal(3 * 22050), 22050)
+    else:
+        path = _write_bad(tmp_path, kind)
+    assert main(["onsets", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("drumroll: error:")
+    assert "Traceback" not in err[0]
