@@ -116,10 +116,11 @@ def track(c: Candidates, params: TrackParams | None = None) -> Track:
             if hyp[0] > hyps[worst][0]:
                 hyps[worst] = hyp
 
-    for i in range(n):
-        hi = np.searchsorted(t, t[i] + p.max_interval_s, side="right")
-        lo = np.searchsorted(t, t[i] + p.min_interval_s, side="left")
-        for j in range(lo, hi):
+    # A roll opens with its loudest bounces: only clearly significant pairs may start one.
+    strong = np.flatnonzero(w >= 0)
+    for i in strong.tolist():
+        for j in strong[(t[strong] >= t[i] + p.min_interval_s)
+                        & (t[strong] <= t[i] + p.max_interval_s)].tolist():
             offer((i, j), (w[i] + w[j], None, math.nan, t[j] - t[i], (i, j)))
 
     first_gain = math.log(log_width / math.log(1.0 / p.min_ratio))
