@@ -1,0 +1,210 @@
+"""What every ``drumroll estimate`` figure shares: palette, fonts, labels, draws and saving.
+
+One look for all figures: the Okabe–Ito colour-blind-safe palette with one fixed colour per
+model (the same model is the same colour in every figure), data in black, 90 % bands as light
+fills under the points, sans-serif fonts large enough to read at the report's width.
+Figures are built as :class:`matplotlib.figure.Figure` objects (no pyplot state, no GUI
+backend needed) and written atomically with :func:`drumroll.fileio.write_with`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from drumroll import fileio
+from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
+
+#: Okabe & Ito (2008) colour-blind-safe palette.
+OKABE_ITO: dict[str, str] = {
+    "blue": "#0072B2", "vermillion": "#D55E00", "green": "#009E73", "orange": "#E69F00",
+    "sky": "#56B4E9", "purple": "#CC79A7", "yellow": "#F0E442", "black": "#000000",
+}
+#: One colour per model, the same in every figure.
+MODEL_COLORS: dict[str, str] = {
+    "pendulum": OKABE_ITO["blue"],
+    "small-angle": OKABE_ITO["vermillion"],
+    "powerlaw": OKABE_ITO["green"],
+}
+#: One line style per model, so coinciding curves (small-angle and power law predict the
+#: same geometric series) stay distinguishable.
+MODEL_LINESTYLES: dict[str, object] = {
+    "pendulum": "-",
+    "small-angle": (0, (5, 2)),
+    "powerlaw": (0, (1, 1.6)),
+}
+_SPARE_COLORS = (OKABE_ITO["orange"], OKABE_ITO["purple"], OKABE_ITO["sky"])
+#: Order in which models are listed when several are drawn.
+MODEL_ORDER: tuple[str, ...] = ("pendulum", "small-angle", "powerlaw")
+#: Human names for legends.
+MODEL_NAMES: dict[str, str] = {
+    "pendulum": "exact pendulum",
+    "small-angle": "small-angle",
+    "powerlaw": "power law",
+}
+DATA_COLOR = "black"
+#: Resolution of every PNG.
+DPI = 150
+#: Central posterior interval drawn as bands (and quoted in titles).
+BAND = 0.90
+
+#: Matplotlib settings applied while a figure is drawn and saved.
+STYLE: dict[str, Any] = {
+    "font.family": "sans-serif",
+    "font.size": 10,
+    "axes.titlesize": 10.5,
+    "axes.labelsize": 10,
+    "xtick.labelsize": 9,
+    "ytick.labelsize": 9,
+    "legend.fontsize": 9,
+    "legend.frameon": False,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.grid": False,
+    "axes.formatter.useoffset": False,
+    "axes.formatter.limits": (-4, 5),
+    "savefig.dpi": DPI,
+    "figure.dpi": DPI,
+}
+
+#: Labels of derived quantities and nuisance parameters (not in the parameter registry).
+_EXTRA_LABELS: dict[str, str] = {
+    "t_c": r"$t_C$ (s)",
+    "theta_c_deg": r"$\theta_C$ (deg)",
+    "omega_c": r"$\omega_C$ (rad/s)",
+    "contact_tip_speed_m_s": r"$v_C$ (m/s)",
+    "t0_s": r"$t_0$ (s)",
+    "nu": r"$\nu$",
+}
+#: Posterior variables that are computed from the sampled ones, not sampled themselves.
+DERIVED_NAMES: frozenset[str] = frozenset(
+    {"t_b", "t_c", "theta_c_deg", "omega_c", "contact_tip_speed_m_s", "t0_s"})
+
+
+@contextlib.contextmanager
+def style() -> Iterator[None]:
+    """Apply :data:`STYLE` (and the Agg-safe defaults) inside a ``with`` block."""
+    import matplotlib
+
+    with matplotlib.rc_context(STYLE):
+        yield
+
+
+def new_figure(figsize: tuple[float, float], **kwargs: Any):
+    """A :class:`matplotlib.figure.Figure` detached from pyplot (so nothing leaks)."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, **kwargs)
+
+
+def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+    """Write ``fig`` as a PNG at :data:`DPI`, atomically, then free its memory.
+
+    Raises
+    ------
+    drumroll.errors.DrumrollError
+        If ``path`` exists and ``overwrite`` is false, or its folder does not exist.
+    """
+    try:
+        with style():
+            return fileio.write_with(
+                path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white"),
+                overwrite=overwrite)
+    finally:
+        fig.clear()
+
+
+def model_color(model: str, index: int = 0) -> str:
+    """The fixed colour of ``model`` (a spare palette colour for unknown names)."""
+    return MODEL_COLORS.get(model, _SPARE_COLORS[index % len(_SPARE_COLORS)])
+
+
+def model_linestyle(model: str) -> object:
+    """The fixed line style of ``model`` (dash-dot for unknown names)."""
+    return MODEL_LINESTYLES.get(model, "-.")
+
+
+def model_name(model: str) -> str:
+    """A model's name as a legend shows it."""
+    return MODEL_NAMES.get(model, model)
+
+
+def ordered_models(models: list[str] | tuple[str, ...] | Any, main: str | None = None
+                   ) -> list[str]:
+    """Models in the canonical order, the main model first."""
+    models = list(models)
+    known = [m for m in MODEL_ORDER if m in models]
+    rest = [m for m in models if m not in MODEL_ORDER]
+    ordered = known + rest
+    if main in ordered:
+        ordered.remove(main)
+        ordered.insert(0, main)
+    return ordered
+
+
+def parameter_label(key: str) -> str:
+    """Axis label with its unit, e.g. ``$d$ (mm)``, for any posterior variable."""
+    if key in PARAMETERS:
+        return PARAMETERS[key].label()
+    if key.startswith("stick_") and key[6:] in STICK_DIMENSIONS:
+        return STICK_DIMENSIONS[key[6:]].label()
+    return _EXTRA_LABELS.get(key, key.replace("_", " "))
+
+
+def parameter_symbol(key: str) -> str:
+    """The bare symbol of a posterior variable (no unit), e.g. ``$\\alpha$``."""
+    label = parameter_label(key)
+    return label.split(" (")[0]
+
+
+def sampled_parameters(idata) -> list[str]:
+    """Names of the posterior variables the sampler moved (not derived, not constant).
+
+    Uses the sampler's own list (``sample_stats.attrs["tau_parameters"]``) when present,
+    otherwise every posterior variable that is not a known derived quantity. Variables with
+    no spread (held fixed) are left out.
+    """
+    posterior = idata.posterior
+    names = None
+    if "sample_stats" in idata.groups():
+        listed = idata.sample_stats.attrs.get("tau_parameters")
+        if listed is not None:
+            names = [str(n) for n in np.atleast_1d(listed) if str(n) in posterior]
+    if not names:
+        names = [str(n) for n in posterior.data_vars if str(n) not in DERIVED_NAMES]
+    return [n for n in names if posterior[n].ndim == 2 and np.ptp(posterior[n].values) > 0]
+
+
+def flat_draws(idata, group: str, name: str) -> NDArray[np.float64]:
+    """``idata[group][name]`` as (chain × draw, …) floats."""
+    values = np.asarray(getattr(idata, group)[name].values, dtype=float)
+    return values.reshape((-1, *values.shape[2:]))
+
+
+def band(draws: NDArray[np.float64], prob: float = BAND
+         ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Lower edge, median and upper edge of the central ``prob`` interval along axis 0."""
+    lo, mid, hi = np.nanquantile(draws, [(1 - prob) / 2, 0.5, (1 + prob) / 2], axis=0)
+    return lo, mid, hi
+
+
+def observed_onsets(idata) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Observed onset times (s) and the extractor's per-onset sigmas (s, zeros if absent)."""
+    times = np.asarray(idata.observed_data["onset_time"].values, dtype=float)
+    sigmas = np.zeros_like(times)
+    if "constant_data" in idata.groups() and "onset_sigma_s" in idata.constant_data:
+        sigmas = np.nan_to_num(np.asarray(idata.constant_data["onset_sigma_s"].values, float))
+    return times, np.broadcast_to(sigmas, times.shape).astype(float)
+
+
+def jitter_s(idata) -> float:
+    """Posterior median of the onset jitter, in seconds (0 if the model has none)."""
+    if "jitter_ms" not in idata.posterior:
+        return 0.0
+    return float(np.nanmedian(idata.posterior["jitter_ms"].values)) * 1e-3

@@ -1,0 +1,145 @@
+"""The sampler trace: has the ensemble forgotten where it started, and is it mixing?
+
+One row per sampled parameter: on the left every walker's path after burn-in (all walkers
+faint, four highlighted so that single paths can be followed), on the right the marginal
+histogram of all draws with the 90 % interval shaded. Each row's title gives the split
+R-hat and the bulk effective sample size (ArviZ); with emcee the walkers are ArviZ's chains,
+so R-hat compares walkers. Slow drifts, walkers stuck apart or a marginal with several
+humps are what to look for.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from drumroll.reporting.plot_style import (
+    BAND,
+    OKABE_ITO,
+    band,
+    model_color,
+    model_name,
+    new_figure,
+    parameter_label,
+    parameter_symbol,
+    sampled_parameters,
+    save_figure,
+    style,
+)
+
+#: Colours of the highlighted walkers (none of them a model colour).
+_HIGHLIGHT = (OKABE_ITO["orange"], OKABE_ITO["purple"], OKABE_ITO["sky"])
+#: R-hat above this is flagged in the titles.
+RHAT_LIMIT = 1.01
+
+
+def _attr(idata, name: str) -> float | None:
+    """A number from ``sample_stats.attrs`` (None when absent)."""
+    if "sample_stats" not in idata.groups():
+        return None
+    value = idata.sample_stats.attrs.get(name)
+    if value is None:
+        return None
+    try:
+        return float(np.max(np.asarray(value, dtype=float)))
+    except (TypeError, ValueError):
+        return None
+
+
+def diagnostics(idata, names: list[str]) -> dict[str, tuple[float, float]]:
+    """Split R-hat and bulk ESS per parameter (NaN where ArviZ cannot compute them)."""
+    import arviz as az
+
+    result = {}
+    for name in names:
+        values = np.asarray(idata.posterior[name].values, float)
+        try:
+            rhat = float(az.rhat(values))
+            ess = float(az.ess(values))
+        except Exception:  # too few draws or chains: report, do not fail
+            rhat = ess = float("nan")
+        result[name] = (rhat, ess)
+    return result
+
+
+def draw_trace(idata, n_highlight: int = 3):
+    """Build the trace figure (a :class:`matplotlib.figure.Figure`) of ``idata``.
+
+    Parameters
+    ----------
+    idata
+        One model's InferenceData (walkers as chains).
+    n_highlight
+        Number of walkers drawn in colour over the faint rest.
+    """
+    names = sampled_parameters(idata)
+    if not names:
+        raise ValueError("the posterior has no varying parameter to draw")
+    model = str(idata.attrs.get("model", ""))
+    color = model_color(model)
+    stats = diagnostics(idata, names)
+
+    n_chain, n_draw = idata.posterior[names[0]].shape
+    burn, thin = _attr(idata, "burn"), _attr(idata, "thin")
+    if burn is not None and thin:
+        steps = burn + thin * np.arange(n_draw)
+        xlabel = "sampler step (after burn-in)"
+    else:
+        steps = np.arange(n_draw)
+        xlabel = "draw"
+    highlight = np.unique(np.linspace(0, n_chain - 1, min(n_highlight, n_chain)).astype(int))
+
+    fig = new_figure((8.6, 0.4 + 1.45 * len(names)), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(len(names), 2, sharex="col", width_ratios=[4.2, 1],
+                                      squeeze=False))
+    for row, name in enumerate(names):
+        ax, ax_hist = axes[row]
+        values = np.asarray(idata.posterior[name].values, float)
+        ax.plot(steps, values.T, color="0.55", lw=0.4, alpha=0.35, zorder=1)
+        for j, chain in enumerate(highlight):
+            ax.plot(steps, values[chain], color=_HIGHLIGHT[j % len(_HIGHLIGHT)], lw=0.9,
+                    zorder=2)
+        ax.set_ylabel(parameter_label(name))
+        ax.margins(x=0)
+        flat = values.ravel()
+        flat = flat[np.isfinite(flat)]
+        lo, mid, hi = band(flat)
+        ax_hist.hist(flat, bins=40, orientation="horizontal", histtype="stepfilled",
+                     color=color, alpha=0.35, lw=0)
+        ax_hist.hist(flat, bins=40, orientation="horizontal", histtype="step", color=color,
+                     lw=1.0)
+        ax_hist.axhspan(lo, hi, color=color, alpha=0.12, lw=0, zorder=0)
+        ax_hist.axhline(mid, color=color, lw=1.2)
+        ax_hist.set_ylim(ax.get_ylim())
+        ax_hist.tick_params(labelleft=False, left=False)
+        ax_hist.set_xticks([])
+        ax_hist.spines["bottom"].set_visible(False)
+        rhat, ess = stats[name]
+        flag = np.isfinite(rhat) and rhat > RHAT_LIMIT
+        ax.set_title(f"{parameter_symbol(name)}:  $\\hat{{R}}$ = {rhat:.3f}"
+                     f"{'  (above ' + str(RHAT_LIMIT) + ')' if flag else ''},  "
+                     f"bulk ESS = {ess:.0f}", loc="left", fontsize=9.5,
+                     color=OKABE_ITO["vermillion"] if flag else "black")
+    axes[-1, 0].set_xlabel(xlabel)
+    axes[0, 1].set_title(f"marginal\n(median, {BAND:.0%})", fontsize=9)
+
+    details = [f"{n_chain} walkers × {n_draw} draws"]
+    if burn is not None:
+        details.append(f"burn-in {burn:.0f} steps")
+    if thin:
+        details.append(f"thinned by {thin:.0f}")
+    tau = _attr(idata, "tau_steps")
+    if tau is not None:
+        details.append(f"max autocorrelation time {tau:.0f} steps")
+    fig.suptitle(f"{model_name(model)}: sampler trace, {len(highlight)} walkers in colour\n"
+                 f"({', '.join(details)})", fontsize=10)
+    return fig
+
+
+def plot_trace(idata, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+    """Write ``trace.png`` (see :func:`draw_trace`) to ``path`` atomically."""
+    with style():
+        fig = draw_trace(idata)
+    return save_figure(fig, path, overwrite=overwrite)
