@@ -67,19 +67,25 @@ def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
     """
     ref = odf if valid is None else odf[valid]
     offset = 0 if valid is None else (valid.start or 0)
-    n_seg = max(1, int(np.ceil(ref.size / segment)))
-    med = np.empty(n_seg)
-    mad = np.empty(n_seg)
-    for i in range(n_seg):
-        part = ref[i * segment:(i + 1) * segment]
-        if part.size == 0:
-            med[i], mad[i] = med[i - 1], mad[i - 1]
-            continue
-        med[i] = np.median(part)
-        mad[i] = np.median(np.abs(part - med[i]))
+    if ref.size == 0:
+        return np.zeros_like(odf)
+    n_full, rest = divmod(ref.size, segment)
+    med, mad = [], []
+    if n_full:  # all whole segments at once (no per-segment Python loop)
+        blocks = ref[: n_full * segment].reshape(n_full, segment)
+        m = np.median(blocks, axis=1)
+        med.append(m)
+        mad.append(np.median(np.abs(blocks - m[:, None]), axis=1))
+    if rest:
+        part = ref[n_full * segment:]
+        m_last = float(np.median(part))
+        med.append(np.array([m_last]))
+        mad.append(np.array([np.median(np.abs(part - m_last))]))
+    med_a, mad_a = np.concatenate(med), np.concatenate(mad)
+    n_seg = med_a.size
     if n_seg > 1:
-        med = ndimage.median_filter(med, size=2 * reach + 1, mode="nearest")
-        mad = ndimage.median_filter(mad, size=2 * reach + 1, mode="nearest")
-    sigma = np.maximum(MAD_TO_SIGMA * mad, 1e-3)
+        med_a = ndimage.median_filter(med_a, size=2 * reach + 1, mode="nearest")
+        mad_a = ndimage.median_filter(mad_a, size=2 * reach + 1, mode="nearest")
+    sigma = np.maximum(MAD_TO_SIGMA * mad_a, 1e-3)
     seg_of = np.clip((np.arange(odf.size) - offset) // segment, 0, n_seg - 1)
-    return (odf - med[seg_of]) / sigma[seg_of]
+    return (odf - med_a[seg_of]) / sigma[seg_of]

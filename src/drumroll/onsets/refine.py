@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, signal
 
 
 @dataclass(frozen=True)
@@ -87,15 +86,18 @@ def whiten(x: np.ndarray, fit: np.ndarray, order: int) -> np.ndarray:
         return x
     r = r.copy()
     r[0] *= 1.0 + 1e-6  # a touch of diagonal loading: keeps pure tones solvable
+    lags = np.abs(np.arange(order)[:, None] - np.arange(order)[None, :])
     try:
-        a = linalg.solve_toeplitz(r[:order], r[1:order + 1])
-    except (linalg.LinAlgError, ValueError):
+        a = np.linalg.solve(r[lags], r[1:order + 1])
+    except np.linalg.LinAlgError:
         return x
-    return signal.lfilter(np.concatenate(([1.0], -a)), [1.0], x)
+    if not np.all(np.isfinite(a)):
+        return x
+    return np.convolve(x, np.concatenate(([1.0], -a)))[: x.size]
 
 
 def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post: int,
-                 search: int, order: int = 16) -> Refined:
+                 search: int, search_after: int | None = None, order: int = 16) -> Refined:
     """Refine an onset near ``y[guess]`` on the high-passed signal ``y``.
 
     Parameters
@@ -107,8 +109,10 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
         Onset estimate from the detection function (sample index into ``y``).
     pre, post
         Window before and after ``guess`` used for the AIC split and the statistics.
-    search
-        The onset is looked for within ``guess ± search``.
+    search, search_after
+        The onset is looked for from ``guess - search`` to ``guess + search_after``
+        (default: ``search`` both ways). The detection function peaks at or after an onset,
+        never much before it (its filters are causal), so the search may lean back.
     order
         Order of the whitening predictor fitted to the ``pre - search`` samples before the
         search region (0: no whitening).
@@ -122,7 +126,8 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
     if order:
         x = whiten(x, x[: max(pre - search, 0)], order)
         x[:order] = 0.0  # no full predictor history yet
-    k = aic_onset(x, max(pre - search, order + 2), pre + search + 1)
+    after = search if search_after is None else search_after
+    k = aic_onset(x, max(pre - search, order + 2), pre + after + 1)
     # Timing precision is set by the whitened signal (what the split saw); the amplitude a
     # user reads is the click's own.
     before = x[order:k] if k > order + 1 else x[:k]

@@ -22,6 +22,7 @@ exactly as far as the recording supports.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -53,7 +54,7 @@ class TrackParams:
     skip_penalty
         Log odds against one bounce missing between two detected ones.
     beam
-        Hypotheses kept per pair of consecutive onsets.
+        Hypotheses kept per onset (the best paths ending there, whatever came before).
     min_onsets
         Fewest onsets that make a roll: three intervals give two ratios, one to predict and one
         to test.
@@ -68,7 +69,7 @@ class TrackParams:
     evidence_max: float = 1.5
     skip_penalty: float = 3.0
     min_onsets: int = 4
-    beam: int = 4
+    beam: int = 12
 
 
 @dataclass
@@ -85,100 +86,180 @@ def _evidence(z: np.ndarray, p: TrackParams) -> np.ndarray:
     return np.minimum(z - p.evidence_z, p.evidence_max)
 
 
+def stretches(t: np.ndarray, max_gap: float) -> list[tuple[int, int]]:
+    """Split sorted times into independent stretches ``[start, stop)`` at gaps longer than
+    ``max_gap``: no flight is that long, so no roll spans such a gap."""
+    if t.size == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(t) > max_gap) + 1
+    edges = [0, *cuts.tolist(), t.size]
+    return list(itertools.pairwise(edges))
+
+
 def track(c: Candidates, params: TrackParams | None = None) -> Track:
     """Choose the bounce sequence among the candidates (see the module docstring)."""
     p = params or TrackParams()
     n = len(c)
     if n == 0:
         return Track(np.zeros(0, dtype=np.int64), -math.inf, {})
-    t = c.time_s
     w = _evidence(c.z, p)
-    sig2 = np.square(np.maximum(c.sigma_s, 1e-6))
-    log_width = math.log(2.0 / p.min_ratio)  # background range of log(interval ratio)
-    jit2 = p.ratio_jitter ** 2
-    norm = 0.5 * math.log(2.0 * math.pi)
-
-    # Each state (i, j) keeps its ``beam`` best hypotheses (score, previous hypothesis,
-    # running log ratio or nan, last interval, state): the running ratio depends on the
-    # path, so the single best predecessor is not enough when a path starts on a stray sound.
-    states: dict[tuple[int, int], list[tuple]] = {}
-    by_end: list[list[tuple[int, int]]] = [[] for _ in range(n)]
-
-    def offer(key: tuple[int, int], hyp: tuple) -> None:
-        hyps = states.get(key)
-        if hyps is None:
-            states[key] = [hyp]
-            by_end[key[1]].append(key)
-        elif len(hyps) < p.beam:
-            hyps.append(hyp)
-        else:
-            worst = min(range(len(hyps)), key=lambda h: hyps[h][0])
-            if hyp[0] > hyps[worst][0]:
-                hyps[worst] = hyp
-
-    # A roll opens with its loudest bounces: only clearly significant pairs may start one.
-    strong = np.flatnonzero(w >= 0)
-    for i in strong.tolist():
-        for j in strong[(t[strong] >= t[i] + p.min_interval_s)
-                        & (t[strong] <= t[i] + p.max_interval_s)].tolist():
-            offer((i, j), (w[i] + w[j], None, math.nan, t[j] - t[i], (i, j)))
-
-    first_gain = math.log(log_width / math.log(1.0 / p.min_ratio))
-    for j in range(n):
-        for key in by_end[j]:
-            i = key[0]
-            for hyp in states[key]:
-                score, _, rho, last, _ = hyp
-                lo = np.searchsorted(t, t[j] + max(p.min_ratio * last, p.min_interval_s))
-                hi = np.searchsorted(t, t[j] + 2.2 * last, side="right")
-                if hi <= lo:
-                    continue
-                ks = np.arange(lo, hi)
-                new = t[ks] - t[j]
-                if math.isnan(rho):
-                    # First ratio: only the prior on the restitution (a ratio in
-                    # [min_ratio, 1]) speaks, against the background.
-                    ok = new <= last * math.exp(3.0 * p.ratio_jitter)
-                    gain = np.where(ok, first_gain, -np.inf)
-                    m_best = np.zeros(ks.size, dtype=np.int64)
-                else:
-                    r = math.exp(rho)
-                    tim2 = (sig2[j] + sig2[ks]) / new**2 + (sig2[i] + sig2[j]) / last**2
-                    gains = []
-                    for m in (0, 1):
-                        pred = last * sum(r ** q for q in range(1, m + 2))
-                        var = jit2 * (m + 1) + tim2
-                        dev = np.log(new / pred)
-                        gains.append(-0.5 * dev**2 / var - 0.5 * np.log(var) - norm + log_width
-                                     - m * p.skip_penalty)
-                    stacked = np.vstack(gains)
-                    m_best = np.argmax(stacked, axis=0)
-                    gain = stacked.max(axis=0)
-                total = score + w[ks] + gain
-                for k, tot, m, dt in zip(ks.tolist(), total.tolist(), m_best.tolist(),
-                                         new.tolist(), strict=True):
-                    if tot == -math.inf:
-                        continue
-                    if m == 0:
-                        step, obs = dt, math.log(dt / last)
-                    else:  # one bounce bridged: dt = last (r + r^2), solve for r
-                        ratio = (-1.0 + math.sqrt(1.0 + 4.0 * dt / last)) / 2.0
-                        step, obs = last * ratio * ratio, math.log(ratio)
-                    rho_new = obs if math.isnan(rho) else \
-                        (1 - p.smoothing) * rho + p.smoothing * obs
-                    offer((j, k), (tot, hyp, rho_new, step, (j, k)))
-
-    if not states:
+    best_path: list[int] = []
+    best_score = -math.inf
+    for lo, hi in stretches(c.time_s, p.max_interval_s):
+        path, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], p).run()
+        if path and score > best_score:
+            best_path, best_score = [lo + i for i in path], score
+    if not best_path:
         strongest = int(np.argmax(c.z))
         return Track(np.array([strongest]), float(w[strongest]), _reasons(c, [strongest]))
-    best = max((h for hyps in states.values() for h in hyps), key=lambda h: h[0])
-    path: list[int] = [best[4][1]]
-    hyp = best
-    while hyp is not None:
-        path.append(hyp[4][0])
-        hyp = hyp[1]
-    index = sorted(set(path))
-    return Track(np.asarray(index, dtype=np.int64), float(best[0]), _reasons(c, index))
+    return Track(np.asarray(best_path, dtype=np.int64), best_score, _reasons(c, best_path))
+
+
+class _Beam:
+    """Beam search over one stretch of candidates, in time order.
+
+    A hypothesis is a path ending at some onset; for each onset the ``beam`` best paths ending
+    there are kept (in flat arrays: score, running log ratio, last interval, end, previous
+    onset, parent hypothesis). Extending to onset ``k`` looks back at every hypothesis whose
+    end lies within the longest flight before ``k`` at once (vectorised), and the arrays are
+    compacted now and then so that memory stays bounded however long the stretch is.
+    """
+
+    def __init__(self, t: np.ndarray, w: np.ndarray, sigma: np.ndarray,
+                 p: TrackParams) -> None:
+        self.t, self.w, self.p = t, w, p
+        self.sig2 = np.square(np.maximum(sigma, 1e-6))
+        self.strong = np.flatnonzero(w >= 0)
+        self.log_width = math.log(2.0 / p.min_ratio)  # background range of log(ratio)
+        self.first_gain = math.log(self.log_width / math.log(1.0 / p.min_ratio))
+        cap = max(64, 8 * p.beam)
+        self.h = {name: np.empty(cap) for name in ("score", "rho", "last")}
+        self.h.update({name: np.empty(cap, dtype=np.int64) for name in ("end", "prev", "parent")})
+        self.used = 0
+        self.best = -1
+
+    def run(self) -> tuple[list[int], float]:
+        """The best path (onset indices in time order) and its score."""
+        p, t = self.p, self.t
+        first = 0  # first hypothesis whose end may still be extended
+        for k in range(t.size):
+            ends = self.h["end"]
+            while first < self.used and t[k] - t[ends[first]] > p.max_interval_s:
+                first += 1
+            props = [self._extend(k, first), self._seeds(k)]
+            props = [q for q in props if q is not None]
+            if not props:
+                continue
+            score, rho, last, prev, parent = (np.concatenate(col) for col in zip(*props,
+                                                                              strict=True))
+            if score.size > p.beam:
+                top = np.argpartition(-score, p.beam - 1)[: p.beam]
+                score, rho, last, prev, parent = (a[top] for a in (score, rho, last, prev,
+                                                                    parent))
+            first = self._append(k, score, rho, last, prev, parent, first)
+        if self.best < 0:
+            return [], -math.inf
+        path = [int(self.h["end"][self.best])]
+        hyp = self.best
+        while hyp >= 0:
+            path.append(int(self.h["prev"][hyp]))
+            hyp = int(self.h["parent"][hyp])
+        return sorted(set(path)), float(self.h["score"][self.best])
+
+    def _extend(self, k: int, first: int) -> tuple | None:
+        """Proposals extending the live hypotheses to onset ``k``."""
+        p, t, h = self.p, self.t, self.h
+        idx = np.arange(first, self.used)
+        if idx.size == 0:
+            return None
+        j, i = h["end"][idx], h["prev"][idx]
+        last, rho = h["last"][idx], h["rho"][idx]
+        new = t[k] - t[j]
+        ok = (new >= np.maximum(p.min_ratio * last, p.min_interval_s)) & (new <= 2.2 * last)
+        seed = np.isnan(rho)
+        ok &= ~seed | (new <= last * math.exp(3.0 * p.ratio_jitter))
+        if not ok.any():
+            return None
+        idx, j, i, last, rho, new, seed = (a[ok] for a in (idx, j, i, last, rho, new, seed))
+        # One missing bounce may be bridged: new = last (r + r^2).
+        r = np.exp(np.where(seed, 0.0, rho))
+        tim2 = (self.sig2[j] + self.sig2[k]) / new**2 + (self.sig2[i] + self.sig2[j]) / last**2
+        jit2 = p.ratio_jitter ** 2
+        norm = 0.5 * math.log(2.0 * math.pi)
+        gains = []
+        for m in (0, 1):
+            pred = last * (r if m == 0 else r + r * r)
+            var = jit2 * (m + 1) + tim2
+            gains.append(-0.5 * np.log(new / pred) ** 2 / var - 0.5 * np.log(var) - norm
+                         + self.log_width - m * p.skip_penalty)
+        skip = gains[1] > gains[0]
+        gain = np.where(seed, self.first_gain, np.maximum(gains[0], gains[1]))
+        skip &= ~seed
+        ratio = np.where(skip, (-1.0 + np.sqrt(1.0 + 4.0 * new / last)) / 2.0, new / last)
+        step = np.where(skip, last * ratio * ratio, new)
+        obs = np.log(ratio)
+        rho_new = np.where(seed, obs, (1 - p.smoothing) * np.where(seed, 0.0, rho)
+                           + p.smoothing * obs)
+        score = h["score"][idx] + self.w[k] + gain
+        return score, rho_new, step, j, idx
+
+    def _seeds(self, k: int) -> tuple | None:
+        """New paths ``(i, k)``: a roll opens with two clearly significant onsets."""
+        p, t = self.p, self.t
+        if self.w[k] < 0:
+            return None
+        s = self.strong
+        a = np.searchsorted(t[s], t[k] - p.max_interval_s, side="left")
+        b = np.searchsorted(t[s], t[k] - p.min_interval_s, side="right")
+        i = s[a:b]
+        if i.size == 0:
+            return None
+        return (self.w[i] + self.w[k], np.full(i.size, np.nan), t[k] - t[i], i,
+                np.full(i.size, -1, dtype=np.int64))
+
+    def _append(self, k, score, rho, last, prev, parent, first) -> int:
+        """Store the hypotheses ending at ``k``; returns the (possibly moved) ``first``."""
+        h = self.h
+        if self.used + score.size > h["score"].size:
+            first = self._compact(first)
+            if self.used + score.size > h["score"].size:
+                for name, arr in h.items():
+                    grown = np.empty(2 * arr.size + score.size, dtype=arr.dtype)
+                    grown[: self.used] = arr[: self.used]
+                    h[name] = grown
+        sl = slice(self.used, self.used + score.size)
+        h["score"][sl], h["rho"][sl], h["last"][sl] = score, rho, last
+        h["end"][sl], h["prev"][sl], h["parent"][sl] = k, prev, parent
+        top = self.used + int(np.argmax(score))
+        if self.best < 0 or h["score"][top] > h["score"][self.best]:
+            self.best = top
+        self.used += score.size
+        return first
+
+    def _compact(self, first: int) -> int:
+        """Drop hypotheses that neither can be extended nor lie on a kept path."""
+        h = self.h
+        keep = np.zeros(self.used, dtype=bool)
+        keep[first: self.used] = True
+        if self.best >= 0:
+            keep[self.best] = True
+        frontier = np.flatnonzero(keep)
+        while frontier.size:
+            par = h["parent"][frontier]
+            par = par[par >= 0]
+            par = par[~keep[par]]
+            keep[par] = True
+            frontier = np.unique(par)
+        new_index = np.cumsum(keep) - 1
+        kept = np.flatnonzero(keep)
+        for name in h:
+            h[name][: kept.size] = h[name][kept]
+        par = h["parent"][: kept.size]
+        h["parent"][: kept.size] = np.where(par >= 0, new_index[np.maximum(par, 0)], -1)
+        self.best = int(new_index[self.best]) if self.best >= 0 else -1
+        first = int(new_index[first]) if first < self.used else kept.size
+        self.used = kept.size
+        return first
 
 
 def _reasons(c: Candidates, kept: list[int]) -> dict[int, str]:
