@@ -1,0 +1,121 @@
+"""``drumroll simulate CONFIG.toml -o roll.wav``: a realistic recording with known truth.
+
+The config's ``[simulate]`` section (see :mod:`drumroll.simulation.settings`) gives the true
+set-up and the recording; the ``[stick]`` section and ``gravity_m_s2`` are shared with the
+fit. The truth (impact times as placed in the file, speeds, per-impact local SNR, spurious
+events, every parameter, the seed, the sample rate, the drumroll version) goes to a JSON
+file beside the recording, or to ``--truth``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import soundfile as sf
+
+from drumroll import __version__
+from drumroll.config import load_config
+from drumroll.errors import ConfigError, DrumrollError, DrumrollWarning
+from drumroll.fileio import check_writable, write_text, write_with
+from drumroll.simulation import render
+from drumroll.simulation.settings import SimulateSettings, true_impacts
+
+#: Container by file suffix.
+CONTAINERS = {".wav": "WAV", ".flac": "FLAC", ".ogg": "OGG"}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``simulate`` subcommand."""
+    parser = subparsers.add_parser(
+        "simulate", help="make a realistic drumroll recording with known truth",
+        description="Render the roll that the config's [simulate] section describes (true "
+        "alpha, pivot, height, release; drum, room, noise) through the exact physics into an "
+        "audio file, and write the truth (impact times, speeds, local SNRs, spurious events, "
+        "all parameters) as JSON.")
+    parser.add_argument("config", help="TOML config file with a [simulate] section")
+    parser.add_argument("-o", "--output", required=True, metavar="AUDIO",
+                        help="recording to write: .wav, .flac or .ogg")
+    parser.add_argument("--truth", metavar="JSON",
+                        help="truth file (default: AUDIO with the suffix .truth.json)")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="random seed (default: the config's simulate.seed, else 0)")
+    parser.add_argument("--force", action="store_true", help="overwrite existing files")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``simulate``."""
+    output = Path(args.output)
+    container = CONTAINERS.get(output.suffix.lower())
+    if container is None:
+        raise DrumrollError(f"{output}: unknown audio container {output.suffix!r} "
+                            f"(expected one of: {', '.join(CONTAINERS)})")
+    truth_path = Path(args.truth) if args.truth else output.with_suffix(".truth.json")
+    if truth_path.resolve() == output.resolve():
+        raise DrumrollError(f"{truth_path}: the truth file cannot be the recording itself")
+    config = load_config(args.config)
+    settings: SimulateSettings | None = config.sections.get("simulate")
+    if settings is None:
+        raise ConfigError(f"{args.config}: simulate: missing section (the true set-up and the "
+                          "recording to make)")
+    if config.stick is None:
+        raise ConfigError(f"{args.config}: stick: missing section (the simulation needs the "
+                          "stick's shape and size)")
+    subtype = _subtype(container, settings, output)
+    check_writable(output, overwrite=args.force)  # fail before the work, not after it
+    check_writable(truth_path, overwrite=args.force)
+    if args.seed is not None and args.seed < 0:
+        raise DrumrollError(f"--seed: must not be negative, got {args.seed}")
+    seed = args.seed if args.seed is not None else (settings.seed or 0)
+
+    rng_roll, rng_sound = np.random.default_rng(seed).spawn(2)
+    stick = config.stick.nominal()
+    try:
+        roll = true_impacts(settings, stick, config.gravity, rng_roll)
+    except ConfigError as exc:
+        raise ConfigError(f"{args.config}: {exc}") from None
+    rendering = render(roll["times_s"], roll["speeds_m_s"], sample_rate=settings.sample_rate,
+                       drum=settings.drum, room=settings.room,
+                       disturbances=settings.disturbances, channels=settings.channels,
+                       rng=rng_sound, peak_dbfs=settings.peak_dbfs)
+    truth = {
+        "drumroll_version": __version__,
+        "seed": seed,
+        "config": str(args.config),
+        "recording": {"file": output.name, "container": container, "subtype": subtype},
+        **rendering.truth(),
+        "model_impact_times_s": [float(t) for t in roll["model_times_s"]
+                                 + rendering.lead_in_s],
+        "simulate": settings.describe(),
+        "stick": {"shape": stick.shape, "length_mm": float(stick.length) * 1e3,
+                  "tip_mm": float(stick.tip) * 1e3, "radius_mm": float(stick.radius) * 1e3},
+        "gravity_m_s2": config.gravity,
+        "physics": roll["physics"],
+    }
+    write_with(output, lambda tmp: sf.write(tmp, rendering.samples, settings.sample_rate,
+                                            subtype=subtype, format=container),
+               overwrite=args.force)
+    write_text(truth_path, json.dumps(truth, indent=1) + "\n", overwrite=args.force)
+    audible = int(np.sum(rendering.local_snr_db > 0))
+    print(f"{output}: {len(rendering.impact_times_s)} impacts ({audible} with local SNR > 0 dB), "
+          f"{rendering.duration_s:.2f} s, {settings.sample_rate} Hz, {settings.channels} ch, "
+          f"{subtype}; truth in {truth_path}")
+    return 0
+
+
+def _subtype(container: str, settings: SimulateSettings, output: Path) -> str:
+    """The soundfile subtype for ``container``, or a one-line error if it cannot hold it."""
+    if container == "OGG":
+        if "subtype" in settings.raw:
+            warnings.warn(f"{output}: .ogg is lossy Vorbis; simulate.subtype = "
+                          f"{settings.subtype!r} does not apply (use .wav or .flac for exact "
+                          "samples)", DrumrollWarning, stacklevel=1)
+        return "VORBIS"
+    if container == "FLAC" and settings.subtype == "FLOAT":
+        raise DrumrollError(f"{output}: FLAC cannot hold FLOAT samples; use simulate.subtype "
+                            "= \"PCM_16\" or \"PCM_24\", or a .wav file")
+    return settings.subtype
