@@ -25,7 +25,7 @@ from drumroll.onsets.peaks import local_maxima, local_robust_z
 from drumroll.onsets.refine import Refined, refine_onset
 
 #: Energy floor per sample (about -140 dBFS) so digital silence has a defined ratio.
-_FLOOR_PER_SAMPLE = 1e-14
+FLOOR_PER_SAMPLE = 1e-14
 
 
 @dataclass
@@ -78,6 +78,25 @@ def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
     return local_robust_z(combined, segment, valid=inner)
 
 
+def plateau(z: np.ndarray, f: int, reach: int, within: float = 1.0) -> tuple[int, int]:
+    """The frames around the peak ``f`` (at most ``reach`` either side) over which ``z``
+    stays within ``within`` of the peak (z is standardised: that is its own noise scale).
+
+    Where on such a plateau noise puts the maximum is chance: a short click gives a plateau
+    that ends at its onset (the window after each earlier frame boundary already holds all of
+    it), a faint or slowly building impact one that starts near its onset. So the onset is
+    searched for over the whole plateau.
+    """
+    level = z[f] - within
+    a = f
+    while a > max(f - reach, 0) and z[a - 1] >= level:
+        a -= 1
+    b = f
+    while b < min(f + reach, z.size - 1) and z[b + 1] >= level:
+        b += 1
+    return a, b
+
+
 def settle_samples(sos: np.ndarray, sample_rate: int, efolds: float = 14.0) -> int:
     """Samples after which a filter started from rest has forgotten its start (its slowest
     pole has decayed by ``efolds`` e-folds, about -120 dB for 14)."""
@@ -123,6 +142,7 @@ class CandidateStream:
         self.hop = params.hop(self.sr)
         self.pre = params.frames(params.pre_s, self.sr)
         self.post = params.frames(params.post_s, self.sr)
+        self.post_loc = params.frames(0.001, self.sr)
         # Candidates at least 1 ms apart: closer peaks are one click's fine structure.
         self.half_width = params.frames(0.001, self.sr)
         self.context = max(params.frames(stats_s, self.sr), 4 * (self.pre + self.post))
@@ -189,11 +209,22 @@ class CandidateStream:
         lo = max(self.done - self.context, f0)
         hi = min(stop + self.context, f0 + min(e.size for e in self.energy))
         inner = slice(min(self.pre, hi - lo), max(hi - lo - self.post, 0))
-        z = combined_z([e[lo - f0: hi - f0] for e in self.energy], self.pre, self.post,
-                       self.segment, inner, _FLOOR_PER_SAMPLE * hop)
+        energies = [e[lo - f0: hi - f0] for e in self.energy]
+        z = combined_z(energies, self.pre, self.post, self.segment, inner,
+                       FLOOR_PER_SAMPLE * hop)
         peaks = local_maxima(z, self.threshold, self.half_width)
         peaks = peaks[(peaks + lo >= self.done) & (peaks + lo < stop)]
-        rows = [(*self._refine((lo + int(f)) * hop), z[f]) for f in peaks]
+        rows = []
+        if peaks.size:
+            # Where on a plateau the energy stepped up: the detection function with a window
+            # too short to plateau before a click (only used to locate, never to detect).
+            z_loc = combined_z(energies, self.pre, self.post_loc, self.segment, inner,
+                               FLOOR_PER_SAMPLE * hop)
+            for f in peaks.tolist():
+                first, last = plateau(z, f, self.post)
+                g = max(first - self.post_loc, 0)
+                at = g + int(np.argmax(z_loc[g: last + 1]))
+                rows.append((*self._refine((lo + at) * hop), z[f]))
         if rows:
             cols = list(zip(*rows, strict=True))
             # Candidates columns: time, z, rise (unused: z carries it), amplitude, snr, sigma.

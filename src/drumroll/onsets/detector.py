@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
 
-from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe
+from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe, read_excerpt
 from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
+from drumroll.onsets.follow import Excerpt, FollowParams, follow
 from drumroll.onsets.odf import OdfParams
 from drumroll.onsets.table import OnsetTable
-from drumroll.onsets.tracking import TrackParams, track
+from drumroll.onsets.tracking import TrackParams, explain, track
 
 _ODF_KEYS = {"hop_s", "highpass_hz", "post_s", "pre_s"}
 _TRACK_KEYS = set(TrackParams.__dataclass_fields__)
@@ -65,20 +66,32 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
         if sr is None or sr <= 0:
             raise AudioError(f"{name}: a sample rate (sr) is needed with an array")
         rate = int(sr)
-        blocks = _array_blocks(source, block_frames, name)
+        mono = _mono(source, name)
+        blocks: Iterable[np.ndarray] = (mono[i: i + block_frames]
+                                        for i in range(0, mono.size, block_frames))
+
+        def excerpt(start: int, stop: int) -> np.ndarray:
+            out = np.zeros(stop - start)
+            lo, hi = max(start, 0), min(stop, mono.size)
+            if hi > lo:
+                out[lo - start: hi - start] = mono[lo:hi]
+            return out
     else:
         name = str(Path(source))
         rate = probe(source).sample_rate
         blocks = iter_blocks(source, block_frames)
 
+        def excerpt(start: int, stop: int) -> np.ndarray:
+            return read_excerpt(source, start, stop)
+
     stream = CandidateStream(rate, odf, threshold=threshold)
     for block in blocks:
         stream.feed(block)
     cands = stream.finish()
-    return _select(cands, tparams, name, rate, all_candidates)
+    return _select(cands, tparams, odf, name, rate, all_candidates, excerpt, stream.total)
 
 
-def _array_blocks(x: np.ndarray, block_frames: int, name: str) -> Iterable[np.ndarray]:
+def _mono(x: np.ndarray, name: str) -> np.ndarray:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 2:
         x = x.mean(axis=1)
@@ -88,11 +101,12 @@ def _array_blocks(x: np.ndarray, block_frames: int, name: str) -> Iterable[np.nd
         raise AudioError(f"{name}: NaN or infinite samples")
     if float(np.abs(x).max()) < 1e-7:
         raise AudioError(f"{name}: the recording is silent")
-    return (x[i: i + block_frames] for i in range(0, x.size, block_frames))
+    return x
 
 
-def _select(c: Candidates, p: TrackParams, name: str, rate: int,
-            all_candidates: bool) -> OnsetTable:
+def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
+            all_candidates: bool, excerpt: Callable[[int, int], np.ndarray],
+            total: int) -> OnsetTable:
     if len(c) == 0:
         raise AudioError(f"no drumroll found in {name}: no impact-like sound in it")
     tr = track(c, p)
@@ -103,9 +117,48 @@ def _select(c: Candidates, p: TrackParams, name: str, rate: int,
         raise AudioError(f"no drumroll found in {name}: only {tr.index.size} impacts in a "
                          f"row, a drumroll needs at least {p.min_onsets}")
     kept = c.subset(tr.index)
-    rejected = np.asarray(sorted(tr.reasons), dtype=np.int64) if all_candidates else \
+    cols = _extend(kept, p, odf, rate, excerpt, total)
+    times = cols[0]
+    near = np.searchsorted(times, c.time_s).clip(1, times.size - 1)
+    dist = np.minimum(np.abs(c.time_s - times[near - 1]), np.abs(c.time_s - times[near]))
+    left_out = np.flatnonzero(dist > _SAME_ONSET_S) if all_candidates else \
         np.zeros(0, dtype=np.int64)
-    return OnsetTable(kept.time_s, kept.amplitude, kept.snr_db, kept.sigma_s,
-                      rejected_time_s=c.time_s[rejected], rejected_snr_db=c.snr_db[rejected],
-                      rejected_reason=[tr.reasons[int(i)] for i in rejected], source=name,
+    reasons = explain(c.time_s, times, left_out.tolist())
+    return OnsetTable(*cols, rejected_time_s=c.time_s[left_out],
+                      rejected_snr_db=c.snr_db[left_out],
+                      rejected_reason=[reasons[int(i)] for i in left_out], source=name,
                       sample_rate=rate)
+
+
+#: Candidates this close to a reported onset are that onset.
+_SAME_ONSET_S = 0.001
+
+
+def _extend(kept: Candidates, p: TrackParams, odf: OdfParams, rate: int,
+            excerpt: Callable[[int, int], np.ndarray], total: int) -> tuple[np.ndarray, ...]:
+    """The tracked roll up to its last clearly significant onset, followed from there by the
+    targeted search of :mod:`.follow`. Returns time, amplitude, SNR and sigma columns."""
+    cols = (kept.time_s, kept.amplitude, kept.snr_db, kept.sigma_s)
+    strong = np.flatnonzero(kept.z >= p.evidence_z)
+    cut = max(int(strong[-1]) + 1 if strong.size else 0, 3)
+    if len(kept) < 3:
+        return cols
+    base = tuple(col[:cut] for col in cols)
+    t = base[0]
+    flights = np.diff(t)
+    ratio = float(np.clip(flights[-1] / flights[-2], p.min_ratio, 0.98))
+    # The roll cannot last longer than the geometric series of its remaining flights.
+    horizon = flights[-1] * ratio / (1.0 - ratio)
+    end_s = min(max(t[-1] + horizon, kept.time_s[-1]) + 0.05, total / rate)
+    start = max(int((t[0] - _CONTEXT_S) * rate), 0)
+    stop = min(int((end_s + _CONTEXT_S) * rate), total)
+    ex = Excerpt(excerpt(start, stop), start, rate, odf)
+    found = follow(list(t), list(base[3]), ex, FollowParams(ratio_jitter=p.ratio_jitter),
+                   p.min_interval_s, end_s)
+    return tuple(np.concatenate((b, np.asarray(f, dtype=float)))
+                 for b, f in zip(base, (found.time_s, found.amplitude, found.snr_db,
+                                        found.sigma_s), strict=True))
+
+
+#: Audio read either side of the roll for the detection function's statistics.
+_CONTEXT_S = 1.0

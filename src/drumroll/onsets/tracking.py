@@ -146,6 +146,8 @@ class _Beam:
             ends = self.h["end"]
             while first < self.used and t[k] - t[ends[first]] > p.max_interval_s:
                 first += 1
+            if self.used + p.beam > self.h["score"].size:  # before any index is handed out
+                first = self._compact(first)
             props = [self._extend(k, first), self._seeds(k)]
             props = [q for q in props if q is not None]
             if not props:
@@ -218,15 +220,13 @@ class _Beam:
                 np.full(i.size, -1, dtype=np.int64))
 
     def _append(self, k, score, rho, last, prev, parent, first) -> int:
-        """Store the hypotheses ending at ``k``; returns the (possibly moved) ``first``."""
+        """Store the hypotheses ending at ``k`` (growing the arrays if needed)."""
         h = self.h
         if self.used + score.size > h["score"].size:
-            first = self._compact(first)
-            if self.used + score.size > h["score"].size:
-                for name, arr in h.items():
-                    grown = np.empty(2 * arr.size + score.size, dtype=arr.dtype)
-                    grown[: self.used] = arr[: self.used]
-                    h[name] = grown
+            for name, arr in h.items():
+                grown = np.empty(2 * arr.size + score.size, dtype=arr.dtype)
+                grown[: self.used] = arr[: self.used]
+                h[name] = grown
         sl = slice(self.used, self.used + score.size)
         h["score"][sl], h["rho"][sl], h["last"][sl] = score, rho, last
         h["end"][sl], h["prev"][sl], h["parent"][sl] = k, prev, parent
@@ -237,7 +237,8 @@ class _Beam:
         return first
 
     def _compact(self, first: int) -> int:
-        """Drop hypotheses that neither can be extended nor lie on a kept path."""
+        """Drop hypotheses that neither can be extended nor lie on a kept path, and make room
+        for the live ones to double (so compaction stays rare)."""
         h = self.h
         keep = np.zeros(self.used, dtype=bool)
         keep[first: self.used] = True
@@ -259,24 +260,30 @@ class _Beam:
         self.best = int(new_index[self.best]) if self.best >= 0 else -1
         first = int(new_index[first]) if first < self.used else kept.size
         self.used = kept.size
+        if 2 * self.used + self.p.beam > h["score"].size:
+            for name, arr in h.items():
+                grown = np.empty(4 * self.used + self.p.beam, dtype=arr.dtype)
+                grown[: self.used] = arr[: self.used]
+                h[name] = grown
         return first
 
 
 def _reasons(c: Candidates, kept: list[int]) -> dict[int, str]:
     """Why each candidate not in ``kept`` was left out."""
-    t = c.time_s
-    kept_t = t[kept]
+    return explain(c.time_s, c.time_s[kept], [i for i in range(len(c)) if i not in set(kept)])
+
+
+def explain(t: np.ndarray, kept_t: np.ndarray, left_out: list[int]) -> dict[int, str]:
+    """Why each candidate ``left_out`` (indices into the candidate times ``t``) is not one of
+    the roll's onsets ``kept_t`` (sorted)."""
     out: dict[int, str] = {}
-    kept_set = set(kept)
-    for idx in range(len(c)):
-        if idx in kept_set:
-            continue
+    for idx in left_out:
         if t[idx] < kept_t[0]:
             out[idx] = "before the roll"
         elif t[idx] > kept_t[-1]:
             out[idx] = "after the roll"
         else:
-            k = int(np.searchsorted(kept_t, t[idx])) - 1
+            k = min(int(np.searchsorted(kept_t, t[idx])) - 1, kept_t.size - 2)
             gap = t[idx] - kept_t[k]
             span = kept_t[k + 1] - kept_t[k]
             if gap < 0.25 * span:
