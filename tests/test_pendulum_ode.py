@@ -423,12 +423,8 @@ def test_ode_reference_near_upright_matches_quadrature(gap):
 
 @pytest.mark.parametrize("gap", [
     1e-3,
-    pytest.param(1e-4, marks=pytest.mark.xfail(strict=True, reason=(
-        "pendulum.py: from rest near upright, m0 = s0 = (1 − sin θ0)/2 ≈ 1 − gap²/4 loses "
-        "1 − m0 to cancellation (sin θ0 ≈ −1) and float rounding of m near 1; the fall time "
-        "~ ln(1/(1 − m0)) inherits it: t_C off by 7e-9 s at gap 1e-4, 4e-7 s at 1e-5, "
-        "2.5e-3 s at 1e-7"))),
-    pytest.param(1e-5, marks=pytest.mark.xfail(strict=True, reason="as for gap 1e-4")),
+    1e-4,
+    1e-5,
 ])
 def test_fall_from_rest_nearly_upright(gap):
     """t_C to 1e-9 s for a stick released from rest within `gap` rad of vertical.
@@ -448,11 +444,7 @@ def test_fall_from_rest_nearly_upright(gap):
 @pytest.mark.parametrize("omega0", [
     1e-9,
     1e-5,
-    pytest.param(4.3e-8, marks=pytest.mark.xfail(strict=True, reason=(
-        "pendulum.py: the release's kinetic term is recovered as m0 − s0 with "
-        "m0 = s0 + ω0²/(4γ); for ω0²/(4γ) below the rounding of m0 (~1e-16) it is lost, "
-        "so t_C is that of a release from rest: 1.1e-9 s too long at ω0 = 4.3e-8 rad/s "
-        "(d = 0.125, h = (L − d)/2, θ0 = 0); fix: use ω0²/(4γ) directly"))),
+    4.3e-8,
 ])
 def test_fall_with_a_tiny_release_speed(omega0):
     """A tiny push shortens the fall by ω0/γ (it is the fall from rest that started ω0/γ

@@ -20,10 +20,11 @@ REASONS: tuple[str, ...] = (
     "a rebound goes over the top and never comes back (restitution or release speed too high)",
     "the flight time must be positive",
     "the pivot must lie on the stick (d >= 0)",
+    "every parameter must be a finite number",
 )
 OK, PIVOT_PAST_CM, TIP_CANNOT_REACH, HEIGHT_NOT_POSITIVE, RELEASED_BELOW_CONTACT, \
     BAD_RELEASE_ANGLE, NEGATIVE_RELEASE_SPEED, BAD_ALPHA, OVER_THE_TOP, BAD_T_B, \
-    PIVOT_OFF_STICK = range(len(REASONS))
+    PIVOT_OFF_STICK, NOT_FINITE = range(len(REASONS))
 
 
 def first_failure(checks: list[tuple[int, NDArray[np.bool_]]], shape: tuple[int, ...]
@@ -97,7 +98,7 @@ class Bounces:
         Between impacts energy is conserved, so flight k lands as fast as it left.
         """
         k = np.arange(self.n_flights + 1)
-        return self.tip_speed_c[..., None] * self.alpha[..., None] ** k
+        return self.tip_speed_c[..., None] * safe_alpha(self.alpha, self.reason)[..., None] ** k
 
     def reasons(self) -> list[str]:
         """The reason text of each batch element ('' where valid)."""
@@ -107,10 +108,16 @@ class Bounces:
 def masked_bounces(reason: NDArray[np.int8], **fields: NDArray) -> Bounces:
     """Build :class:`Bounces`, with NaN in every field of an invalid element.
 
-    ``alpha`` is kept as given so that a caller can still see which α was asked for.
+    ``alpha`` is kept as given so that a caller can still see which α was asked for; the
+    models compute with :func:`safe_alpha` instead.
     """
     bad = reason != OK
     masked = {name: (value if name == "alpha" else
                      np.where(bad[:, None] if value.ndim == 2 else bad, np.nan, value))
               for name, value in fields.items()}
     return Bounces(reason=reason, **masked)
+
+
+def safe_alpha(alpha: NDArray, reason: NDArray[np.int8]) -> NDArray:
+    """α where the point is valid, a harmless 0.5 elsewhere (no overflow in α^k)."""
+    return np.where(reason == OK, alpha, 0.5)

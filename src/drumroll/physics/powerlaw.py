@@ -9,7 +9,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drumroll.physics.bounces import BAD_ALPHA, BAD_T_B, Bounces, first_failure
+from drumroll.physics.bounces import (
+    BAD_ALPHA,
+    BAD_T_B,
+    NOT_FINITE,
+    Bounces,
+    first_failure,
+    masked_bounces,
+    safe_alpha,
+)
 
 
 def powerlaw_bounces(alpha: ArrayLike, t_b: ArrayLike, n_flights: int) -> Bounces:
@@ -32,12 +40,12 @@ def powerlaw_bounces(alpha: ArrayLike, t_b: ArrayLike, n_flights: int) -> Bounce
     """
     alpha, t_b = np.broadcast_arrays(np.asarray(alpha, float), np.asarray(t_b, float))
     alpha, t_b = np.atleast_1d(alpha), np.atleast_1d(t_b)
-    reason = first_failure([(BAD_ALPHA, ~((alpha > 0) & (alpha <= 1))),
+    reason = first_failure([(NOT_FINITE, ~(np.isfinite(alpha) & np.isfinite(t_b))),
+                            (BAD_ALPHA, ~((alpha > 0) & (alpha <= 1))),
                             (BAD_T_B, ~(t_b > 0))], alpha.shape)
     k = np.arange(1, n_flights + 1)
-    flights = t_b[:, None] * alpha[:, None] ** k
-    bad = reason != 0
-    flights[bad] = np.nan
+    t_b_safe = np.where(reason == 0, t_b, 1.0)
+    flights = t_b_safe[:, None] * safe_alpha(alpha, reason)[:, None] ** k
     nan = np.full(alpha.shape, np.nan)
-    return Bounces(alpha=alpha, flights=flights, t_c=nan, t_b=np.where(bad, np.nan, t_b),
-                   theta_c=nan, omega_c=nan, tip_speed_c=nan, reason=reason)
+    return masked_bounces(reason, alpha=alpha, flights=flights, t_c=nan, t_b=t_b_safe,
+                          theta_c=nan, omega_c=nan, tip_speed_c=nan)

@@ -12,6 +12,7 @@ from drumroll.physics.bounces import (
     BAD_RELEASE_ANGLE,
     HEIGHT_NOT_POSITIVE,
     NEGATIVE_RELEASE_SPEED,
+    NOT_FINITE,
     PIVOT_OFF_STICK,
     PIVOT_PAST_CM,
     TIP_CANNOT_REACH,
@@ -30,7 +31,8 @@ class Release:
     Attributes
     ----------
     alpha
-        Coefficient of restitution α.
+        Coefficient of restitution α, as given (models use
+        :func:`~drumroll.physics.bounces.safe_alpha` for arithmetic).
     gamma
         Angular acceleration scale γ = g (l_C − d) / K_O² (rad/s², eq. 6).
     arm
@@ -96,6 +98,8 @@ def prepare_release(
     arm = total_length - pivot
     reason = first_failure(
         [
+            (NOT_FINITE, ~np.isfinite(alpha + pivot + height + release_speed + release_angle
+                                      + total_length + centre_of_mass + radius_of_gyration)),
             (BAD_ALPHA, ~((alpha > 0) & (alpha <= 1))),
             (PIVOT_OFF_STICK, ~(pivot >= 0)),
             (PIVOT_PAST_CM, ~(pivot < centre_of_mass)),
@@ -113,5 +117,5 @@ def prepare_release(
     sin_theta_c = np.where(bad, 0.5, height / arm)
     theta0 = np.where(bad, 0.0, release_angle)
     omega0 = np.where(bad, 0.0, release_speed / arm)
-    return Release(alpha=np.where(bad, 0.5, alpha), gamma=gamma, arm=arm,
+    return Release(alpha=alpha, gamma=gamma, arm=arm,
                    sin_theta_c=sin_theta_c, theta0=theta0, omega0=omega0, reason=reason)

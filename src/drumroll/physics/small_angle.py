@@ -9,7 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from drumroll.physics.bounces import RELEASED_BELOW_CONTACT, Bounces, masked_bounces
+from drumroll.physics.bounces import (
+    RELEASED_BELOW_CONTACT,
+    Bounces,
+    masked_bounces,
+    safe_alpha,
+)
 from drumroll.physics.release import Release
 
 
@@ -36,7 +41,7 @@ def small_angle_bounces(release: Release, n_flights: int) -> Bounces:
     omega_c = np.sqrt(r.omega0**2 + 2.0 * r.gamma * np.maximum(theta_c - r.theta0, 0.0))
     t_b = 2.0 * omega_c / r.gamma
     k = np.arange(1, n_flights + 1)
-    flights = t_b[:, None] * r.alpha[:, None] ** k
+    flights = t_b[:, None] * safe_alpha(r.alpha, reason)[:, None] ** k
     return masked_bounces(reason, alpha=r.alpha, flights=flights,
                           t_c=(omega_c - r.omega0) / r.gamma, t_b=t_b, theta_c=theta_c,
                           omega_c=omega_c, tip_speed_c=omega_c * r.arm)
