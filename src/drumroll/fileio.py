@@ -54,6 +54,10 @@ def atomic_path(path: str | os.PathLike[str], *, overwrite: bool = False) -> Ite
                                     dir=path.parent)
     os.close(fd)
     tmp = Path(tmp_name)
+    # mkstemp creates the file private (0600); give it the mode a plain open() would.
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
     try:
         yield tmp
         if path.exists() and not overwrite:  # appeared while we were working

@@ -23,7 +23,7 @@ def error_decimals(err: float, significant: int | None = None) -> int:
     """
     exponent = math.floor(math.log10(abs(err)))
     if significant is None:
-        leading = abs(err) / 10.0**exponent
+        leading = round(abs(err) / 10.0**exponent, 6)  # 0.3 must not read as 2.999…
         significant = 2 if leading < 3 else 1
     return significant - 1 - exponent
 
