@@ -106,6 +106,8 @@ class Truncated(Prior):
         object.__setattr__(self, "_mass", cdf_hi - cdf_lo)
         object.__setattr__(self, "_log_mass", math.log(cdf_hi - cdf_lo)
                            if cdf_hi > cdf_lo else -math.inf)
+        # A point inside the support, substituted outside it so the density never warns.
+        object.__setattr__(self, "_inside", float(self.ppf(0.5)) if cdf_hi > cdf_lo else lo)
 
     @property
     def mass(self) -> float:
@@ -127,9 +129,10 @@ class Truncated(Prior):
     def logpdf(self, x: ArrayLike) -> NDArray:
         x = np.asarray(x, float)
         inside = (x >= self.lower) & (x <= self.upper)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(inside, self._logpdf(np.where(inside, x, self.median()))
-                            - self._log_mass, -np.inf)
+        if inside.all():  # the usual case inside a sampler: no substitution needed
+            return self._logpdf(x) - self._log_mass
+        return np.where(inside, self._logpdf(np.where(inside, x, self._inside))
+                        - self._log_mass, -np.inf)
 
     def ppf(self, u: ArrayLike) -> NDArray:
         q = self._cdf_lo + np.asarray(u, float) * self._mass

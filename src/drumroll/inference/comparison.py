@@ -1,0 +1,152 @@
+"""Model comparison: PSIS-LOO (ArviZ) and Bayes factors (nested sampling), and a verdict.
+
+Signs: every difference is **main model − other model**, so a positive ``elpd_loo_diff`` or
+``log_bayes_factor`` favours the main model.
+
+A preference is claimed only when it is clear (the verdict must not over-claim):
+
+* LOO decides when |Δelpd| > 4 and |Δelpd| > 2 × its standard error (below 4 the standard
+  error itself is unreliable: Sivula, Magnusson & Vehtari 2022);
+* the Bayes factor decides when |ln B| > 1 (Jeffreys' "substantial") and > 2 × its error;
+* a model is preferred over another when LOO decides for it and the Bayes factor does not
+  decide against it, or the Bayes factor decides for it and LOO does not decide against it.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import arviz as az
+import numpy as np
+
+from drumroll.inference.evidence import Evidence
+
+LOO_MIN_DIFF = 4.0
+SIGMAS = 2.0
+BF_MIN = 1.0
+PARETO_K_BAD = 0.7
+
+MODEL_NAMES = {"pendulum": "the exact pendulum", "small-angle": "the small-angle pendulum",
+               "powerlaw": "the power law"}
+
+
+@dataclass(frozen=True)
+class LooResult:
+    """PSIS-LOO of one model."""
+
+    elpd: float
+    se: float
+    pointwise: np.ndarray
+    pareto_k: np.ndarray
+
+    @property
+    def bad_onsets(self) -> list[int]:
+        """Indices of onsets whose Pareto k exceeds 0.7 (LOO unreliable there)."""
+        return [int(i) for i in np.flatnonzero(self.pareto_k > PARETO_K_BAD)]
+
+
+def loo(idata: az.InferenceData) -> LooResult:
+    """PSIS-LOO of one fit, keeping the pointwise values for paired differences."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # high Pareto k is reported by name, not as a warning
+        result = az.loo(idata, pointwise=True)
+    return LooResult(elpd=float(result.elpd_loo), se=float(result.se),
+                     pointwise=np.asarray(result.loo_i), pareto_k=np.asarray(result.pareto_k))
+
+
+def _sign(value: float, error: float, minimum: float) -> int:
+    """+1 / −1 when ``value`` clearly favours the first / second model, else 0."""
+    if abs(value) > minimum and abs(value) > SIGMAS * error:
+        return 1 if value > 0 else -1
+    return 0
+
+
+def decide(elpd_diff: float, elpd_diff_se: float, log_bf: float | None = None,
+           log_bf_err: float | None = None) -> int:
+    """+1 if the first model is clearly preferred, −1 if the second is, 0 if undecided."""
+    by_loo = _sign(elpd_diff, elpd_diff_se, LOO_MIN_DIFF)
+    by_bf = 0 if log_bf is None else _sign(log_bf, log_bf_err or 0.0, BF_MIN)
+    if by_loo and by_bf != -by_loo:
+        return by_loo
+    if by_bf and by_loo != -by_bf:
+        return by_bf
+    return 0
+
+
+def compare_models(idatas: dict[str, az.InferenceData], main: str,
+                   evidences: dict[str, Evidence] | None = None
+                   ) -> tuple[list[dict[str, float | str | list[int]]], str | None, str,
+                              dict[str, LooResult]]:
+    """Compare ``main`` with every other fitted model.
+
+    Returns
+    -------
+    rows, preferred, verdict, loos
+        One row per other model (the ``summary.json`` contract: ``model``,
+        ``elpd_loo_diff``, ``elpd_loo_diff_se``, ``log_bayes_factor``,
+        ``log_bayes_factor_err``, plus ``elpd_loo``, ``elpd_loo_se``, ``pareto_k_bad``);
+        the preferred model (None when the data cannot tell); the verdict in plain words;
+        and each model's LOO.
+    """
+    evidences = evidences or {}
+    loos = {name: loo(idata) for name, idata in idatas.items()}
+    rows: list[dict] = []
+    sentences = []
+    for name in idatas:
+        if name == main:
+            continue
+        diff_i = loos[main].pointwise - loos[name].pointwise
+        diff = float(diff_i.sum())
+        diff_se = float(math.sqrt(diff_i.size * np.var(diff_i)))
+        row = {"model": name, "elpd_loo_diff": diff, "elpd_loo_diff_se": diff_se,
+               "elpd_loo": loos[name].elpd, "elpd_loo_se": loos[name].se,
+               "pareto_k_bad": loos[name].bad_onsets}
+        log_bf = log_bf_err = None
+        if main in evidences and name in evidences:
+            log_bf = evidences[main].log_z - evidences[name].log_z
+            log_bf_err = math.hypot(evidences[main].log_z_err, evidences[name].log_z_err)
+            row.update(log_bayes_factor=log_bf, log_bayes_factor_err=log_bf_err)
+        rows.append(row)
+        sentences.append(_sentence(main, name, decide(diff, diff_se, log_bf, log_bf_err),
+                                   diff, diff_se, log_bf, log_bf_err))
+    preferred = _preferred(main, rows)
+    verdict = "; ".join(sentences) if sentences else "no other model was fitted"
+    return rows, preferred, verdict, loos
+
+
+def _preferred(main: str, rows: list[dict]) -> str | None:
+    """The model clearly better than every other one, or None."""
+    outcomes = {row["model"]: decide(row["elpd_loo_diff"], row["elpd_loo_diff_se"],
+                                     row.get("log_bayes_factor"),
+                                     row.get("log_bayes_factor_err")) for row in rows}
+    if all(o == 1 for o in outcomes.values()):
+        return main
+    winners = [m for m, o in outcomes.items() if o == -1]
+    if len(winners) == 1:
+        # The winner must also beat the remaining models: compare through the main model.
+        winner = winners[0]
+        w = next(r for r in rows if r["model"] == winner)
+        for row in rows:
+            if row["model"] == winner:
+                continue
+            diff = row["elpd_loo_diff"] - w["elpd_loo_diff"]
+            se = math.hypot(row["elpd_loo_diff_se"], w["elpd_loo_diff_se"])
+            if _sign(-diff, se, LOO_MIN_DIFF) != 1:
+                return None
+        return winner
+    return None
+
+
+def _sentence(main: str, other: str, outcome: int, diff: float, diff_se: float,
+              log_bf: float | None, log_bf_err: float | None) -> str:
+    numbers = f"Δelpd = {diff:.1f} ± {diff_se:.1f}"
+    if log_bf is not None:
+        numbers += f", log BF = {log_bf:.1f} ± {log_bf_err:.1f}"
+    a, b = MODEL_NAMES.get(main, main), MODEL_NAMES.get(other, other)
+    if outcome == 1:
+        return f"{a} is preferred over {b} ({numbers})"
+    if outcome == -1:
+        return f"{b} is preferred over {a} ({numbers}, signs are {main} − {other})"
+    return f"the data cannot tell {a} from {b} ({numbers})"

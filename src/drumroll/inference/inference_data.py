@@ -1,0 +1,118 @@
+"""From an emcee chain to ArviZ InferenceData, in the units of the paper's tables.
+
+Groups: ``posterior`` (sampled parameters and derived quantities, under the summary names:
+``alpha``, ``t_b``, ``t_c``, ``pivot_mm``, ``height_mm``, ``release_speed_m_s``,
+``release_angle_deg``, ``jitter_ms``, ``t0_s``, …), ``prior``, ``log_likelihood``
+(``onset_time``, per onset, for PSIS-LOO), ``posterior_predictive`` (replicated
+``onset_time`` and the noise-free ``flight_time_model``), ``observed_data``,
+``constant_data`` (the extractor's ``onset_sigma_s``) and ``sample_stats`` (``lp``).
+Walkers are ArviZ's chains.
+"""
+
+from __future__ import annotations
+
+import math
+
+import arviz as az
+import numpy as np
+from numpy.typing import NDArray
+
+from drumroll import __version__
+from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.sampling import Chain
+from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
+
+#: Internal name → (summary name, factor from SI to the summary's unit).
+EXPORT: dict[str, tuple[str, float]] = {
+    **{spec.name: (spec.key, 1.0 / spec.to_si) for spec in PARAMETERS.values()},
+    **{f"stick_{spec.name}": (f"stick_{spec.key}", 1.0 / spec.to_si)
+       for spec in STICK_DIMENSIONS.values()},
+    "t0": ("t0_s", 1.0),
+    "nu": ("nu", 1.0),
+}
+#: Derived quantities: summary name → (Bounces attribute, factor to the summary's unit).
+DERIVED: dict[str, tuple[str, float]] = {
+    "t_b": ("t_b", 1.0),
+    "t_c": ("t_c", 1.0),
+    "theta_c_deg": ("theta_c", 180.0 / math.pi),
+    "omega_c": ("omega_c", 1.0),
+    "contact_tip_speed_m_s": ("tip_speed_c", 1.0),
+}
+
+
+def _flat(array: NDArray) -> NDArray:
+    """(chain, draw, …) → (chain × draw, …)."""
+    return array.reshape((-1, *array.shape[2:]))
+
+
+def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.random.Generator
+                    ) -> tuple[dict[str, NDArray], NDArray, NDArray]:
+    """Sampled parameters, derived quantities and T0 for ``samples`` (…, ndim).
+
+    Returns
+    -------
+    variables, impacts, t0
+        ``variables`` maps summary names to arrays of shape ``samples.shape[:-1]``;
+        ``impacts`` (…, N + 1) are the model's impact times after the first; ``t0`` is T0.
+    """
+    shape = samples.shape[:-1]
+    flat = samples.reshape(-1, samples.shape[-1])
+    space = log_posterior.space
+    values = space.values(flat)
+    bounces = space.bounces_from_values(values, log_posterior.data.n_flights)
+    t0 = log_posterior.conditional_t0(flat, rng)
+    variables: dict[str, NDArray] = {}
+    for name in space.names:
+        key, factor = EXPORT[name]
+        variables[key] = values[name] * factor
+    for key, (attribute, factor) in DERIVED.items():
+        value = getattr(bounces, attribute)
+        if key == "t_b" and "t_b" in space.names:
+            continue
+        if not np.all(np.isnan(value)):
+            variables[key] = value * factor
+    variables["t0_s"] = t0
+    variables = {k: np.asarray(v).reshape(shape) for k, v in variables.items()}
+    return variables, bounces.impacts.reshape((*shape, -1)), t0.reshape(shape)
+
+
+def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.random.Generator,
+                         n_prior: int = 2000) -> az.InferenceData:
+    """Every group of one model's fit (see the module docstring)."""
+    data = log_posterior.data
+    samples = chain.samples
+    variables, impacts, t0 = parameter_draws(log_posterior, samples, rng)
+    flat_samples = _flat(samples)
+    pointwise = log_posterior.pointwise(flat_samples, _flat(t0[..., None])[:, 0])
+    pointwise = pointwise.reshape((*samples.shape[:2], -1))
+    values = log_posterior.space.values(flat_samples)
+    scale = np.sqrt(np.asarray(values["jitter"])[:, None] ** 2 + data.sigmas**2)
+    noise = scale * rng.standard_normal(scale.shape)
+    if log_posterior.noise == "student-t":
+        nu = np.broadcast_to(np.asarray(values["nu"], float), scale.shape[:1])[:, None]
+        noise = scale * rng.standard_t(nu, size=scale.shape)
+    predicted = (_flat(t0[..., None]) + _flat(impacts) + noise).reshape(pointwise.shape)
+    flights = np.diff(impacts, axis=-1)
+
+    prior_samples = log_posterior.space.sample_prior(rng, n_prior)
+    prior_variables, _, _ = parameter_draws(log_posterior, prior_samples[None], rng)
+    coords = {"onset": np.arange(data.n_onsets), "flight": np.arange(1, data.n_onsets)}
+    dims = {"onset_time": ["onset"], "flight_time_model": ["flight"], "onset_sigma_s": ["onset"]}
+    idata = az.from_dict(
+        posterior=variables,
+        posterior_predictive={"onset_time": predicted, "flight_time_model": flights},
+        log_likelihood={"onset_time": pointwise},
+        observed_data={"onset_time": data.times},
+        constant_data={"onset_sigma_s": data.sigmas},
+        prior=prior_variables,
+        sample_stats={"lp": chain.log_prob},
+        coords=coords, dims=dims,
+        attrs={"model": log_posterior.space.model, "noise": log_posterior.noise,
+               "drumroll_version": __version__},
+    )
+    idata.sample_stats.attrs.update({
+        "tau_steps": [float(t) for t in chain.tau], "tau_parameters": list(
+            EXPORT[n][0] for n in log_posterior.space.names),
+        "acceptance": chain.acceptance, "n_steps": chain.n_steps, "burn": chain.burn,
+        "thin": chain.thin, "converged": int(chain.converged)})
+    return idata
