@@ -222,7 +222,7 @@ def test_spurious_events_are_reported_and_placed():
     assert r.spurious_kinds == ("tap", "knock")
     tap, knock = r.spurious_times_s
     assert 0.2 <= r.impact_times_s[0] - tap <= 1.0
-    assert tap >= 0.05  # the lead-in grew to fit it
+    assert tap >= 0.2 - 1e-12  # the lead-in grew to fit it
     assert knock > r.impact_times_s[-1] + 0.3
     assert r.duration_s > knock + 0.4
     n = int(np.ceil(tap * FS))

@@ -46,7 +46,8 @@ class Disturbances:
         Add a tap 0.2-1 s before the roll and a handling knock after the roll has faded;
         both are reported as spurious events.
     lead_in_s
-        Silence (noise only) before the first impact; lengthened if a tap must fit in.
+        Silence (noise only) before the first impact; lengthened so that a tap lands at
+        least 0.2 s after the start of the file.
     tail_s
         Recording time after the last impact; lengthened if a knock must fit in.
     """

@@ -168,7 +168,7 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
     lead = disturbances.lead_in_s
     end = times[-1] + disturbances.tail_s
     for ev in events:  # the tap must fit after the file's start, the knock before its end
-        lead = max(lead, 0.05 - (times[0] + ev.time_s))
+        lead = max(lead, 0.2 - (times[0] + ev.time_s))
         end = max(end, times[0] + ev.time_s + 0.5)
     onsets = times + lead
     spur_onsets = np.array([lead + times[0] + ev.time_s for ev in events])
