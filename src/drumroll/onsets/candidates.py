@@ -190,7 +190,7 @@ class CandidateStream:
         if not self._parts:
             return Candidates()
         c = Candidates(*(np.concatenate(col) for col in zip(*self._parts, strict=True)))
-        return _merge_close(c, self.half_width * self.hop / self.sr)
+        return _merge_close(c, self.post * self.hop / self.sr)
 
     def _add(self, block: np.ndarray) -> None:
         self.buf = np.concatenate((self.buf, block))
@@ -224,7 +224,7 @@ class CandidateStream:
                 first, last = plateau(z, f, self.post)
                 g = max(first - self.post_loc, 0)
                 at = g + int(np.argmax(z_loc[g: last + 1]))
-                rows.append((*self._refine((lo + at) * hop), z[f]))
+                rows.append((*self._refine((lo + at) * hop, (at - first) * hop), z[f]))
         if rows:
             cols = list(zip(*rows, strict=True))
             # Candidates columns: time, z, rise (unused: z carries it), amplitude, snr, sigma.
@@ -239,10 +239,13 @@ class CandidateStream:
             self.energy = [e[drop:] for e in self.energy]
             self.buf0 = keep_from
 
-    def _refine(self, guess: int) -> tuple[float, float, float, float]:
-        """Refine an onset near absolute sample ``guess``: time, amplitude, SNR, sigma."""
+    def _refine(self, guess: int, lead: int) -> tuple[float, float, float, float]:
+        """Refine an onset near absolute sample ``guess``, whose detection plateau starts
+        ``lead`` samples earlier: time, amplitude, SNR, sigma."""
+        back = self.ref_search + max(lead, 0)
         r = refine_window(self.buf, self.buf0, guess, self.sr, self.wide_ba, self.settle,
-                          pre=self.ref_pre, post=self.ref_post, search=self.ref_search,
+                          pre=self.ref_pre + back - self.ref_search, post=self.ref_post,
+                          search=back,
                           search_after=self.ref_after)
         return r.sample / self.sr, r.amplitude, r.snr_db, r.sigma_s
 
@@ -268,19 +271,24 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
 
 
 def _merge_close(c: Candidates, gap_s: float) -> Candidates:
-    """Keep one candidate (the most significant) of any that refined to within ``gap_s``:
-    two peaks of the detection function can belong to one sound."""
+    """Merge candidates that refined to within ``gap_s`` of the one before them.
+
+    Two peaks of the detection function that close belong to one sound as far as this
+    detection function can tell (the later one is measured against a reference that holds
+    the earlier one): a faint impact's energy often arrives in two steps (the click, then the
+    drum and the snare wires building up). The sound starts at the earlier one, so its time
+    is kept, with the larger significance of the two.
+    """
     order = np.argsort(c.time_s, kind="stable")
     c = c.subset(order)
     keep = np.ones(len(c), dtype=bool)
+    z = c.z.copy()
     last = -1
     for i in range(len(c)):
         if last >= 0 and c.time_s[i] - c.time_s[last] < gap_s:
-            if c.z[i] > c.z[last]:
-                keep[last] = False
-                last = i
-            else:
-                keep[i] = False
+            keep[i] = False
+            z[last] = max(z[last], z[i])
         else:
             last = i
+    c.z = z
     return c.subset(np.flatnonzero(keep))

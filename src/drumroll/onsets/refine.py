@@ -16,9 +16,11 @@ by a linear predictor fitted to the stretch before the search region (the AR-AIC
 Sleeman & van Eck 1999): the ring is predicted away, the new impact is not, and the AIC
 split is taken on the prediction error.
 
-The uncertainty follows from the slope of the rise against the noise before it: a rise of
-duration ``tau`` to amplitude ``A`` over noise of RMS ``s`` is mistimed by about
-``tau * s / A``; one-sample quantisation adds ``1 / (sr * sqrt(12))`` in quadrature.
+The uncertainty has three parts, added in quadrature: the spread of the change point's
+likelihood ``exp(-AIC / 2)`` over the searched samples (tempered by how much more irregular
+the noise before the onset is than white Gaussian noise, :func:`dispersion`); the level-
+dependent lag of the split behind the true start of a smooth rise, about the click's rise
+time times its noise-to-peak ratio as recorded; and one-sample quantisation.
 """
 
 from __future__ import annotations
@@ -39,7 +41,9 @@ class Refined:
     amplitude
         Peak absolute value of the high-passed click in the window after the onset.
     snr_db
-        Peak click amplitude against the RMS of the high-passed sound before it, dB.
+        The impact's own sound against what was already there: the whitened energy in the
+        ``post`` samples after the onset, less the energy per sample before it, over the
+        latter, dB (0 dB: the impact is as loud as the ring and noise it lands in).
     sigma_s
         Timing uncertainty (one standard deviation), seconds.
     rise_s
@@ -53,16 +57,28 @@ class Refined:
     rise_s: float
 
 
-def aic_onset(x: np.ndarray, lo: int, hi: int) -> int:
-    """Index in ``[lo, hi)`` of ``x`` minimising the two-variance AIC (variance stepping up).
+#: Splits whose tempered AIC is within this of the best are statistically equivalent
+#: (a likelihood ratio of e: Akaike's usual "substantial support" band).
+EQUIVALENT = 2.0
 
-    Falls back to the unrestricted minimum when no split in range has the variance rising.
+
+def aic_onset(x: np.ndarray, lo: int, hi: int, dispersion: float = 1.0) -> tuple[int, float]:
+    """Index in ``[lo, hi)`` of ``x`` minimising the two-variance AIC (variance stepping up),
+    and the standard deviation (samples) of the change point's likelihood.
+
+    ``AIC(k)`` is, up to a constant, minus twice the log-likelihood of "zero-mean Gaussian
+    noise whose variance changes at k"; ``exp(-AIC / 2)`` over the searched splits is the
+    change point's likelihood, and its spread about the best split is the timing uncertainty
+    the data support: narrow for a sharp step out of quiet, wide where the noise before and
+    the sound after are hard to tell apart. ``dispersion`` (>= 1) tempers that likelihood
+    when the noise is less regular than Gaussian white noise (see :func:`dispersion`). Falls
+    back to the unrestricted minimum when no split in range has the variance rising.
     """
     n = x.size
     e = np.concatenate(([0.0], np.cumsum(x * x)))
     k = np.arange(max(lo, 2), min(hi, n - 2))
     if k.size == 0:
-        return int(np.clip((lo + hi) // 2, 0, n - 1))
+        return int(np.clip((lo + hi) // 2, 0, n - 1)), float(max(hi - lo, 1)) / np.sqrt(12.0)
     tiny = 1e-300
     v1 = e[k] / k + tiny
     v2 = (e[n] - e[k]) / (n - k) + tiny
@@ -70,7 +86,33 @@ def aic_onset(x: np.ndarray, lo: int, hi: int) -> int:
     rising = v2 > v1
     if rising.any():
         aic = np.where(rising, aic, np.inf)
-    return int(k[np.argmin(aic)])
+    best = int(np.argmin(aic))
+    delta = (aic - aic[best]) / max(dispersion, 1.0)
+    # The sound starts at the first split as good as the best: later steps of similar weight
+    # are the same impact building up (drum modes, snare wires), not its start.
+    best = int(np.flatnonzero(delta <= EQUIVALENT)[0])
+    weight = np.exp(-0.5 * (aic - aic[best]) / max(dispersion, 1.0))
+    spread = float(np.sqrt(np.sum(weight * (k - k[best]) ** 2) / np.sum(weight)))
+    return int(k[best]), spread
+
+
+def dispersion(x: np.ndarray, block: int = 16) -> float:
+    """How much more the short-time power of ``x`` fluctuates than white Gaussian noise's.
+
+    The mean square of ``block`` independent Gaussian samples has relative variance
+    ``2 / block``; noise that is modulated (snare wires buzzing at the head's frequency) or
+    still correlated after whitening fluctuates more, and a likelihood that assumed
+    independent samples is overconfident by about this ratio (a quasi-likelihood dispersion).
+    Returns at least 1.
+    """
+    n = x.size // block
+    if n < 4:
+        return 1.0
+    ms = np.mean(x[: n * block].reshape(n, block) ** 2, axis=1)
+    mean = float(ms.mean())
+    if mean <= 0:
+        return 1.0
+    return max(float(ms.var(ddof=1)) / mean**2 / (2.0 / block), 1.0)
 
 
 def whiten(x: np.ndarray, fit: np.ndarray, order: int) -> np.ndarray:
@@ -127,7 +169,8 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
         x = whiten(x, x[: max(pre - search, 0)], order)
         x[:order] = 0.0  # no full predictor history yet
     after = search if search_after is None else search_after
-    k = aic_onset(x, max(pre - search, order + 2), pre + after + 1)
+    fit_end = max(pre - search, order + 2)
+    k, spread = aic_onset(x, fit_end, pre + after + 1, dispersion(x[order:fit_end]))
     # Timing precision is set by the whitened signal (what the split saw); the amplitude a
     # user reads is the click's own.
     before = x[order:k] if k > order + 1 else x[:k]
@@ -141,7 +184,24 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
         rise = (int(half[0]) + 1) / sample_rate if half.size else post / sample_rate
     else:
         rise = 1.0 / sample_rate
-    snr = peak_abs / noise
-    sigma = float(np.hypot(rise / max(snr, 1e-6), 1.0 / (sample_rate * np.sqrt(12.0))))
+    # Where a smooth rise first stands out of the noise depends on how loud it is: a lag of
+    # about (rise time) x (noise / peak) on the click as recorded, which varies from impact
+    # to impact as the levels do.
+    raw_after = np.abs(raw[k: k + post])
+    raw_peak = float(raw_after.max()) if raw_after.size else 0.0
+    raw_before = raw[max(k - post, 0): k]
+    raw_noise = float(np.sqrt(np.mean(raw_before**2))) if raw_before.size else 0.0
+    if raw_peak > 0:
+        half_raw = np.flatnonzero(raw_after >= 0.5 * raw_peak)
+        rise_raw = (int(half_raw[0]) + 1) if half_raw.size else post
+        lag = rise_raw * min(raw_noise / raw_peak, 1.0)
+    else:
+        lag = float(post)
+    sigma = float(np.sqrt(spread**2 + lag**2 + 1.0 / 12.0) / sample_rate)
+    # The impact's own sound against what was already there, as energies over the window
+    # after the onset (the whitened sound before it is the reference).
+    e_after = float(np.mean(after * after)) if after.size else 0.0
+    e_before = noise * noise
+    own = max(e_after / e_before - 1.0, 1e-6)
     return Refined(sample=start + k, amplitude=amplitude,
-                   snr_db=float(20.0 * np.log10(max(snr, 1e-6))), sigma_s=sigma, rise_s=rise)
+                   snr_db=float(10.0 * np.log10(own)), sigma_s=sigma, rise_s=rise)

@@ -32,7 +32,8 @@ class OnsetTable:
     amplitude
         Peak absolute value of the high-passed impact click (full scale = 1); NaN if unknown.
     snr_db
-        Local signal-to-noise ratio of the click against the sound just before it, dB.
+        Local signal-to-noise ratio: the impact's own sound (energy over the 2 ms after the
+        onset, prediction of the ring before it removed) against the sound already there, dB.
     sigma_s
         One-standard-deviation timing uncertainty of each onset, seconds (0 if unknown).
     interval_s
