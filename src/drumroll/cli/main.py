@@ -17,7 +17,7 @@ from drumroll import __version__
 from drumroll.errors import DrumrollError
 
 #: Subcommand modules, in the order ``drumroll --help`` lists them.
-SUBCOMMANDS = ("predict", "onsets", "simulate")
+SUBCOMMANDS = ("predict", "onsets", "simulate", "estimate")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,6 +58,17 @@ def run_cli(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``drumroll`` with ``argv`` (default: ``sys.argv[1:]``) and return the exit status."""
     return run_cli(build_parser(), argv)
+
+
+def estimate_main(argv: Sequence[str] | None = None) -> int:
+    """``estimate SOURCE --prior CONFIG.toml``: the top-level alias of ``drumroll estimate``."""
+    from drumroll.cli.estimate import add_arguments
+
+    parser = argparse.ArgumentParser(
+        prog="estimate", description="Estimate α, t_C, t_B, the effective pivot, the release "
+        "speed and the onset jitter from a drumroll recording (same as `drumroll estimate`).")
+    add_arguments(parser)
+    return run_cli(parser, argv)
 
 
 if __name__ == "__main__":

@@ -44,7 +44,12 @@ from drumroll.physics.geometry import StickGeometry
 
 #: Extra sections: name → "module:function"; the function takes (table, where) and returns
 #: the parsed section, raising ConfigError with the key's path on bad input.
-SECTION_PARSERS: dict[str, str] = {"simulate": "drumroll.simulation.settings:parse_simulate"}
+SECTION_PARSERS: dict[str, str] = {
+    "simulate": "drumroll.simulation.settings:parse_simulate",
+    "sampler": "drumroll.inference.settings:parse_sampler",
+    "likelihood": "drumroll.inference.settings:parse_likelihood",
+    "report": "drumroll.inference.settings:parse_report",
+}
 
 _TOP_LEVEL = ("model", "compare", "gravity_m_s2", "stick", "priors")
 

@@ -3,7 +3,8 @@
 Groups: ``posterior`` (sampled parameters and derived quantities, under the summary names:
 ``alpha``, ``t_b``, ``t_c``, ``pivot_mm``, ``height_mm``, ``release_speed_m_s``,
 ``release_angle_deg``, ``jitter_ms``, ``t0_s``, …), ``prior``, ``log_likelihood``
-(``onset_time``, per onset, for PSIS-LOO), ``posterior_predictive`` (replicated
+(``onset_time``, per onset, for PSIS-LOO: with Gaussian noise the conditional
+log p(t_i | t_{-i}, θ) of :mod:`drumroll.inference.loo`), ``posterior_predictive`` (replicated
 ``onset_time`` and the noise-free ``flight_time_model``), ``observed_data``,
 ``constant_data`` (the extractor's ``onset_sigma_s``) and ``sample_stats`` (``lp``).
 Walkers are ArviZ's chains.
@@ -18,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll import __version__
+from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain
 from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
@@ -83,9 +85,13 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
     samples = chain.samples
     variables, impacts, t0 = parameter_draws(log_posterior, samples, rng)
     flat_samples = _flat(samples)
-    pointwise = log_posterior.pointwise(flat_samples, _flat(t0[..., None])[:, 0])
-    pointwise = pointwise.reshape((*samples.shape[:2], -1))
     values = log_posterior.space.values(flat_samples)
+    if log_posterior.noise == "gaussian":  # T0 marginalised: conditional terms (see .loo)
+        pointwise = conditional_pointwise(data, _flat(impacts),
+                                          np.broadcast_to(values["jitter"], t0.size))
+    else:
+        pointwise = log_posterior.pointwise(flat_samples, _flat(t0[..., None])[:, 0])
+    pointwise = pointwise.reshape((*samples.shape[:2], -1))
     scale = np.sqrt(np.asarray(values["jitter"])[:, None] ** 2 + data.sigmas**2)
     noise = scale * rng.standard_normal(scale.shape)
     if log_posterior.noise == "student-t":

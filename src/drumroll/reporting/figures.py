@@ -16,13 +16,9 @@ atomically; existing files are refused (all of them checked before anything is d
 
 from __future__ import annotations
 
-import math
 import os
-import warnings
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
@@ -42,56 +38,33 @@ FIGURE_FILES: dict[str, str] = {
 }
 
 
-def loo_comparison(idatas: dict[str, Any], main_model: str) -> list[dict[str, float | str]]:
-    """PSIS-LOO elpd of every model and its difference from ``main_model``.
+def loo_comparison(idatas: dict[str, Any], main_model: str,
+                   summary_rows: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
+    """Rows for the comparison figure: every model's elpd and its difference from the main one.
 
-    Differences are *model − main* (negative: worse than the main model); their standard
-    error comes from the pointwise differences, as in :func:`arviz.compare`. Models without a
-    usable ``log_likelihood`` group are left out.
+    The figure shows differences as *model − main*; ``summary.json`` (and
+    :func:`drumroll.inference.comparison.compare_models`) signs them *main − model*. This
+    turns the latter into the former, computing PSIS-LOO when no summary rows are given.
     """
-    import arviz as az
+    from drumroll.inference.comparison import compare_models
 
-    loos = {}
-    for model, idata in idatas.items():
-        if "log_likelihood" not in idata.groups():
-            continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                loos[model] = az.loo(idata, pointwise=True)
-            except Exception:  # not enough draws, all -inf, …: just leave the model out
-                continue
-    rows: list[dict[str, float | str]] = []
-    reference = loos.get(main_model)
-    for model, loo in loos.items():
-        row: dict[str, float | str] = {"model": model, "elpd_loo": float(loo.elpd_loo),
-                                       "elpd_loo_se": float(loo.se)}
-        if reference is not None:
-            diff = np.asarray(loo.loo_i) - np.asarray(reference.loo_i)
-            if diff.size == np.asarray(reference.loo_i).size:
-                row["elpd_loo_diff"] = float(np.sum(diff))
-                row["elpd_loo_diff_se"] = float(np.sqrt(diff.size * np.var(diff)))
-        rows.append(row)
-    return rows
-
-
-def _merge(given: list[dict[str, Any]] | None, computed: list[dict[str, Any]]
-           ) -> list[dict[str, Any]]:
-    """The caller's rows, with missing elpd numbers filled in from ``computed``."""
-    if not given:
-        return computed
-    by_model = {str(r["model"]): r for r in computed}
-    merged = []
-    for row in given:
-        row = dict(row)
-        extra = by_model.get(str(row.get("model")), {})
-        for key in ("elpd_loo", "elpd_loo_se", "elpd_loo_diff_se"):
-            value = row.get(key)
-            if value is None or (isinstance(value, float) and math.isnan(value)):
-                if key in extra:
-                    row[key] = extra[key]
-        merged.append(row)
-    return merged
+    rows, _, _, loos = compare_models(idatas, main_model)
+    given = {str(r["model"]): r for r in (summary_rows or rows)}
+    out: list[dict[str, Any]] = [{"model": main_model, "elpd_loo": loos[main_model].elpd,
+                                  "elpd_loo_se": loos[main_model].se, "elpd_loo_diff": 0.0,
+                                  "elpd_loo_diff_se": 0.0, "log_bayes_factor": 0.0,
+                                  "log_bayes_factor_err": 0.0}]
+    for row in rows:
+        model = str(row["model"])
+        source = given.get(model, row)
+        plot_row = {"model": model, "elpd_loo": loos[model].elpd, "elpd_loo_se": loos[model].se,
+                    "elpd_loo_diff": -float(source["elpd_loo_diff"]),
+                    "elpd_loo_diff_se": float(source["elpd_loo_diff_se"])}
+        if source.get("log_bayes_factor") is not None:
+            plot_row["log_bayes_factor"] = -float(source["log_bayes_factor"])
+            plot_row["log_bayes_factor_err"] = float(source["log_bayes_factor_err"])
+        out.append(plot_row)
+    return out
 
 
 def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.PathLike[str],
@@ -110,10 +83,9 @@ def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.Pat
     out_dir
         Existing folder to write into.
     comparison
-        Rows ``{"model", "elpd_loo", "elpd_loo_se", "elpd_loo_diff", "elpd_loo_diff_se",
-        "log_bayes_factor", "log_bayes_factor_err"}`` (main model included). Differences
-        and ``log_bayes_factor`` (= ln Z(model) − ln Z(main)) are *model − main*. Missing
-        elpd numbers are computed with :func:`arviz.loo`; None computes them all.
+        The summary's comparison rows (``model``, ``elpd_loo_diff``, ``elpd_loo_diff_se``,
+        ``log_bayes_factor``, ``log_bayes_factor_err``; signed *main − model*), or None to
+        compute PSIS-LOO here.
     truths
         Known parameter values (simulations), by posterior name, for the corner plot.
     overwrite
@@ -141,7 +113,7 @@ def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.Pat
         fileio.check_writable(path, overwrite=overwrite)
 
     main = idatas[main_model]
-    rows = _merge(comparison, loo_comparison(idatas, main_model))
+    rows = loo_comparison(idatas, main_model, comparison)
     written: dict[str, Path] = {}
     written["bounce_series"] = plot_bounce_series(idatas, main_model, paths["bounce_series"],
                                                   overwrite=overwrite)

@@ -7,7 +7,7 @@ links, so the folder can be moved or zipped as a whole), and, folded away, the o
 and the configuration used.
 
 Sign conventions of the comparison (the summary's contract): ``elpd_loo_diff`` and
-``log_bayes_factor`` are *model − main model*, so negative numbers mean "worse than the main
+``log_bayes_factor`` are *main model − model*, so positive numbers mean "better than the
 model"; the main model's own row has 0.
 """
 
@@ -203,10 +203,10 @@ def comparison_section(summary: dict[str, Any]) -> list[str]:
     lines = ["## Model comparison", ""]
     if rows:
         has_bf = any(_finite(r.get("log_bayes_factor")) for r in rows)
-        header = "| model | Δelpd_loo vs main (model − main) |"
+        header = "| compared with | Δelpd_loo (main − model) |"
         rule = "|---|---:|"
         if has_bf:
-            header += " ln B vs main (ln Z_model − ln Z_main) |"
+            header += " ln B (ln Z_main − ln Z_model) |"
             rule += "---:|"
         lines += [header, rule]
         for row in rows:
@@ -222,9 +222,11 @@ def comparison_section(summary: dict[str, Any]) -> list[str]:
             if has_bf:
                 line += f" {bf} |"
             lines.append(line)
-        lines += ["", "Negative numbers: the model predicts the onsets worse (elpd) or is less "
-                  "probable given the data (ln B) than the main model. A difference of a few "
-                  "standard errors in elpd, or |ln B| above about 3, is strong evidence.", ""]
+        lines += ["", "Positive numbers favour the main model: it predicts the onsets better "
+                  "(elpd) or is more probable given the data (ln B). A preference is claimed "
+                  "only when Δelpd exceeds both 4 and twice its standard error, or |ln B| "
+                  "exceeds both 1 and twice its error, without the other measure disagreeing.",
+                  ""]
     else:
         lines += ["Only one model was fitted: nothing to compare.", ""]
     preferred = summary.get("preferred")

@@ -1,0 +1,133 @@
+"""``drumroll estimate SOURCE --prior CONFIG.toml`` (also installed as ``estimate``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from drumroll.cli.progress import Progress
+from drumroll.config import load_config
+from drumroll.errors import DrumrollError
+from drumroll.estimate import ONSET_FILE_SUFFIXES, Result, estimate
+from drumroll.reporting.numbers import format_value_error
+from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
+
+#: Truth-file keys (``drumroll simulate``) → posterior names, for the corner plot.
+_TRUTH_KEYS = {"alpha": "alpha", "pivot_mm": "pivot_mm", "height_mm": "height_mm",
+               "release_speed_m_s": "release_speed_m_s",
+               "release_angle_deg": "release_angle_deg", "timing_jitter_ms": "jitter_ms"}
+_TRUTH_PHYSICS = {"t_b_s": "t_b", "t_c_s": "t_c", "theta_c_deg": "theta_c_deg",
+                  "omega_c_rad_s": "omega_c", "contact_tip_speed_m_s": "contact_tip_speed_m_s"}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The arguments of ``estimate`` (shared by ``drumroll estimate`` and ``estimate``)."""
+    parser.add_argument("source", help="recording (WAV, FLAC, OGG, MP3, …) or onset file "
+                        "(our CSV, Audacity labels, one time per line)")
+    parser.add_argument("--prior", "--config", dest="config", required=True,
+                        metavar="CONFIG.toml", help="config with the model and its priors")
+    parser.add_argument("-o", "--out", type=Path, help="output folder (default: "
+                        "./<source stem>-estimate/)")
+    parser.add_argument("--truth", type=Path, help="truth JSON of a simulated recording "
+                        "(drawn on the corner plot)")
+    parser.add_argument("--seed", type=int, help="override [sampler] seed")
+    parser.add_argument("--workers", type=int, help="processes fitting models side by side")
+    parser.add_argument("--no-evidence", action="store_true",
+                        help="skip nested sampling (no Bayes factors; LOO only)")
+    parser.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    parser.set_defaults(func=run)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``estimate`` subcommand."""
+    parser = subparsers.add_parser(
+        "estimate", help="posteriors of α, t_B, pivot, release speed, jitter; model comparison",
+        description="Estimate the restitution coefficient, fall and rebound times, effective "
+        "pivot, release speed and onset jitter from a drumroll recording, with the exact "
+        "pendulum compared against its small-angle version and the power law.")
+    add_arguments(parser)
+
+
+def _truths(path: Path | None) -> dict[str, float] | None:
+    if path is None:
+        return None
+    try:
+        truth = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DrumrollError(f"{path}: no such truth file") from None
+    except (OSError, ValueError) as exc:
+        raise DrumrollError(f"{path}: not a truth JSON file ({exc})") from None
+    simulate, physics = truth.get("simulate", {}), truth.get("physics", {})
+    out = {name: float(simulate[key]) for key, name in _TRUTH_KEYS.items()
+           if isinstance(simulate.get(key), int | float)}
+    out.update({name: float(physics[key]) for key, name in _TRUTH_PHYSICS.items()
+                if isinstance(physics.get(key), int | float)})
+    return out
+
+
+def _apply_overrides(config, args: argparse.Namespace):
+    sampler = dict(config.sections.get("sampler", {}))
+    if args.seed is not None:
+        sampler["seed"] = args.seed
+    if args.workers is not None:
+        if args.workers < 1:
+            raise DrumrollError("--workers must be at least 1")
+        sampler["workers"] = args.workers
+    if args.no_evidence:
+        sampler["evidence"] = False
+    config.sections["sampler"] = sampler
+    return config
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``estimate``: check inputs and outputs first, then sample, then write."""
+    source = Path(args.source)
+    if not source.exists():
+        raise DrumrollError(f"{source}: no such file")
+    if source.is_dir():
+        raise DrumrollError(f"{source}: is a directory, expected a recording or onset file")
+    config = _apply_overrides(load_config(args.config), args)
+    truths = _truths(args.truth)
+    out_dir = args.out or Path(f"{source.stem}-estimate")
+    is_audio = source.suffix.lower() not in ONSET_FILE_SUFFIXES
+    check_outputs(out_dir, output_files(include_onsets_figure=is_audio), overwrite=args.force)
+    progress = Progress(quiet=args.quiet)
+    with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
+        result = estimate(source, config, progress=progress.say)
+    with progress.stage(f"writing {out_dir}"):
+        write_outputs(result, out_dir, overwrite=args.force, truths=truths)
+    print(terminal_table(result))
+    print(f"\nresults in {out_dir}/ (report.md, summary.json, posterior.nc, figures)")
+    return 0
+
+
+def terminal_table(result: Result) -> str:
+    """The compact table: parameter, mean, sd, interval, R-hat, ESS; then the verdict."""
+    summary = result.summary
+    parameters = summary["parameters"]
+    hdi = next(iter(parameters.values()))["hdi_prob"]
+    lines = [f"{summary['model']}: {summary['n_onsets']} onsets",
+             f"{'parameter':<22} {'mean ± sd':>22} {f'{hdi:.0%} interval':>24} "
+             f"{'R-hat':>6} {'ESS':>6}"]
+    for name, p in parameters.items():
+        if p["sd"] is None or p["mean"] is None:
+            continue
+        mean_sd = format_value_error(p["mean"], p["sd"])
+        decimals = mean_sd.split(" ± ")[0]
+        places = len(decimals.split(".")[1]) if "." in decimals else 0
+        interval = f"[{p['hdi_low']:.{places}f}, {p['hdi_high']:.{places}f}]"
+        r_hat = "—" if p["r_hat"] is None else f"{p['r_hat']:.3f}"
+        ess = "—" if p["ess_bulk"] is None or math.isnan(p["ess_bulk"]) else \
+            f"{min(p['ess_bulk'], p['ess_tail'] or math.inf):.0f}"
+        lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>6} {ess:>6}")
+    for d in summary["diagnostics"].values():
+        for warning in d["warnings"]:
+            lines.append(f"warning: {warning}")
+    lines.append("")
+    preferred = summary["preferred"]
+    lines.append(f"preferred: {preferred if preferred else 'none (the data cannot tell)'}")
+    lines.append(f"verdict: {summary['verdict']}")
+    return "\n".join(lines)

@@ -1,0 +1,233 @@
+"""``drumroll.estimate``: from a recording (or onset file) to posteriors and a comparison.
+
+The data's path: onsets (:mod:`drumroll.onsets`) → log posterior of each model
+(:class:`~drumroll.inference.posterior.LogPosterior`) → emcee
+(:func:`~drumroll.inference.sampling.run_emcee`) and, for Bayes factors, dynesty
+(:func:`~drumroll.inference.evidence.compute_evidence`) → ArviZ InferenceData → PSIS-LOO
+comparison and verdict → :class:`Result`, which :mod:`drumroll.outputs` writes to disk.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import arviz as az
+import numpy as np
+
+from drumroll import __version__
+from drumroll.config import Config, load_config
+from drumroll.errors import DrumrollError
+from drumroll.inference.comparison import compare_models
+from drumroll.inference.evidence import Evidence, compute_evidence
+from drumroll.inference.inference_data import EXPORT, build_inference_data
+from drumroll.inference.likelihood import OnsetData
+from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.sampling import Chain, run_emcee
+from drumroll.inference.settings import EstimateSettings, estimate_settings
+from drumroll.inference.summary import diagnostics, parameter_summary
+from drumroll.onsets import OnsetTable, detect, read_onsets
+
+#: Suffixes read as onset files rather than audio.
+ONSET_FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".lab", ".labels")
+#: Fewest onsets that can constrain a model (three flights).
+MIN_ONSETS = 4
+#: Posterior draws kept per model (beyond this the chain is thinned further: the ESS of every
+#: parameter stays far above 400, and posterior.nc and the figures stay small).
+MAX_DRAWS = 8000
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class ModelFit:
+    """One model's fit: its posterior, chain, InferenceData and evidence."""
+
+    model: str
+    log_posterior: LogPosterior
+    chain: Chain
+    idata: az.InferenceData
+    evidence: Evidence | None
+    seconds: dict[str, float]
+
+
+@dataclass
+class Result:
+    """Everything ``estimate`` learned (and what ``summary.json`` holds).
+
+    Attributes
+    ----------
+    summary
+        The ``summary.json`` contract.
+    fits
+        Model name → :class:`ModelFit`, main model first.
+    onsets
+        The onsets that were fitted.
+    config
+        The config used.
+    source
+        The recording or onset file, if read from disk.
+    seconds
+        Wall time by stage.
+    """
+
+    summary: dict[str, Any]
+    fits: dict[str, ModelFit]
+    onsets: OnsetTable
+    config: Config
+    source: Path | None
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def model(self) -> str:
+        return self.summary["model"]
+
+    @property
+    def preferred(self) -> str | None:
+        return self.summary["preferred"]
+
+    @property
+    def idatas(self) -> dict[str, az.InferenceData]:
+        return {name: fit.idata for name, fit in self.fits.items()}
+
+    def parameter(self, name: str) -> dict[str, float]:
+        """The main model's summary of one parameter (``alpha``, ``t_b``, …)."""
+        return self.summary["parameters"][name]
+
+
+def load_onsets(source: str | os.PathLike[str] | OnsetTable, **options: Any) -> OnsetTable:
+    """Onsets from an onset file (CSV, Audacity labels, plain text) or by detection in audio."""
+    if isinstance(source, OnsetTable):
+        return source
+    path = Path(source)
+    if path.suffix.lower() in ONSET_FILE_SUFFIXES:
+        return read_onsets(path)
+    return detect(path, **options)
+
+
+def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings, seed: int
+         ) -> tuple[Chain, Evidence | None, dict[str, float]]:
+    """Sample one model (and its evidence); runs in a worker process."""
+    log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
+    started = time.perf_counter()
+    sampler = settings.sampler.__class__(**{**settings.sampler.__dict__, "seed": seed})
+    chain = run_emcee(log_posterior, sampler)
+    seconds = {"emcee": time.perf_counter() - started}
+    evidence = None
+    if settings.evidence:
+        started = time.perf_counter()
+        evidence = compute_evidence(log_posterior, seed=seed, n_live=settings.live_points)
+        seconds["dynesty"] = time.perf_counter() - started
+    return chain, evidence, seconds
+
+
+def thin_chain(chain: Chain, max_draws: int) -> Chain:
+    """Thin ``chain`` further (keeping the latest draws) so it holds at most ``max_draws``."""
+    walkers, draws = chain.samples.shape[:2]
+    step = -(-walkers * draws // max_draws)  # ceiling division
+    if step <= 1:
+        return chain
+    return replace(chain, samples=chain.samples[:, ::-1][:, ::step][:, ::-1],
+                   log_prob=chain.log_prob[:, ::-1][:, ::step][:, ::-1], thin=chain.thin * step)
+
+
+def model_seed(base: int, index: int) -> int:
+    """An independent, reproducible seed for the ``index``-th model of a run."""
+    return int(np.random.SeedSequence([base, index]).generate_state(1)[0])
+
+
+def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str | os.PathLike[str],
+             *, progress: Progress | None = None, **onset_options: Any) -> Result:
+    """Posteriors of every model in the config, and their comparison.
+
+    Parameters
+    ----------
+    source
+        A recording (anything soundfile reads), an onset file (our CSV, Audacity labels, one
+        time per line) or an :class:`~drumroll.onsets.OnsetTable`.
+    config
+        A :class:`~drumroll.config.Config` or the path of a TOML config.
+    progress
+        Called with a line of text at each stage (the command line prints it on stderr).
+    onset_options
+        Passed to :func:`drumroll.onsets.detect` when ``source`` is audio.
+
+    Returns
+    -------
+    Result
+        Summary, fits (InferenceData per model), onsets.
+    """
+    say = progress or (lambda message: None)
+    if not isinstance(config, Config):
+        config = load_config(config)
+    settings = estimate_settings(config.sections)
+    seconds: dict[str, float] = {}
+    started = time.perf_counter()
+    onsets = load_onsets(source, **onset_options)
+    seconds["onsets"] = time.perf_counter() - started
+    if len(onsets) < MIN_ONSETS:
+        raise DrumrollError(f"{source}: only {len(onsets)} onsets; at least {MIN_ONSETS} are "
+                            "needed to estimate anything")
+    say(f"{len(onsets)} onsets, from {onsets.time_s[0]:.4f} s to {onsets.time_s[-1]:.4f} s")
+    data = OnsetData.from_arrays(onsets.time_s, onsets.sigma_s)
+
+    models = config.models
+    workers = max(1, min(settings.workers, len(models)))
+    evidence_note = "with evidences by nested sampling, " if settings.evidence else ""
+    say(f"sampling {', '.join(models)} ({evidence_note}{workers} "
+        f"process{'es' if workers > 1 else ''})")
+    started = time.perf_counter()
+    seeds = [model_seed(settings.sampler.seed, i) for i in range(len(models))]
+    if workers == 1:
+        outputs = [_fit(config, m, data, settings, s) for m, s in zip(models, seeds, strict=True)]
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = [pool.submit(_fit, config, m, data, settings, s)
+                       for m, s in zip(models, seeds, strict=True)]
+            outputs = []
+            for model, future in zip(models, futures, strict=True):
+                outputs.append(future.result())
+                say(f"{model}: done")
+    seconds["sampling"] = time.perf_counter() - started
+
+    started = time.perf_counter()
+    fits: dict[str, ModelFit] = {}
+    for model, seed, (chain, evidence, fit_seconds) in zip(models, seeds, outputs, strict=True):
+        chain = thin_chain(chain, MAX_DRAWS)
+        log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
+        idata = build_inference_data(log_posterior, chain, np.random.default_rng(seed))
+        fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, fit_seconds)
+    evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
+    rows, preferred, verdict, loos = compare_models({m: f.idata for m, f in fits.items()},
+                                                    config.model, evidences)
+    seconds["comparison"] = time.perf_counter() - started
+    main = fits[config.model]
+    summary = {
+        "model": config.model,
+        "n_onsets": len(onsets),
+        "parameters": parameter_summary(main.idata, settings.hdi_prob),
+        "fixed": {EXPORT[name][0]: prior.value * EXPORT[name][1]
+                  for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
+        "comparison": rows,
+        "preferred": preferred,
+        "verdict": verdict,
+        "diagnostics": {m: diagnostics(f.idata, f.chain, loos[m], settings)
+                        for m, f in fits.items()},
+        "evidence": {m: {"log_z": e.log_z, "log_z_err": e.log_z_err, "n_calls": e.n_calls}
+                     for m, e in evidences.items()},
+        "onsets": [{"time_s": float(t), "sigma_s": float(s)}
+                   for t, s in zip(onsets.time_s, onsets.sigma_s, strict=True)],
+        "config": config.raw,
+        "source": None if isinstance(source, OnsetTable) else str(source),
+        "version": __version__,
+        "seconds": {**seconds, **{f"{m}_{k}": v for m, f in fits.items()
+                                  for k, v in f.seconds.items()}},
+    }
+    return Result(summary=summary, fits=fits, onsets=onsets, config=config,
+                  source=None if isinstance(source, OnsetTable) else Path(source),
+                  seconds=seconds)

@@ -1,0 +1,110 @@
+"""The config sections that steer estimation: ``[sampler]``, ``[likelihood]``, ``[report]``.
+
+::
+
+    [sampler]
+    walkers = 32              # emcee walkers (raised to 2 ndim + 2 when smaller)
+    max_steps = 20000         # stop here even if not converged (a warning says so)
+    seed = 0                  # everything random in the run
+    evidence = true           # nested sampling (dynesty) for log Bayes factors
+    live_points = 200         # dynesty live points
+    workers = 2               # processes fitting models side by side (default: cores)
+
+    [likelihood]
+    noise = "gaussian"        # or "student-t" for recordings with a few bad onsets
+    nu = 4                    # Student-t degrees of freedom: a number or a prior table
+
+    [report]
+    hdi_prob = 0.9            # credible-interval mass in tables and summary.json
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+from drumroll.config.priors_section import parse_prior
+from drumroll.config.validate import boolean, check_keys, number, string
+from drumroll.errors import ConfigError
+from drumroll.inference.posterior import NOISE_MODELS
+from drumroll.inference.priors import Fixed, Prior
+from drumroll.inference.sampling import SamplerSettings
+from drumroll.parameters import ParameterSpec
+
+_NU = ParameterSpec("nu", "nu", r"$\nu$", "", 1.0, 0.0, float("inf"), True, True,
+                    "Student-t degrees of freedom")
+
+
+@dataclass(frozen=True)
+class EstimateSettings:
+    """Everything ``estimate`` needs beyond the model and priors."""
+
+    sampler: SamplerSettings = field(default_factory=SamplerSettings)
+    evidence: bool = True
+    live_points: int = 200
+    workers: int = field(default_factory=lambda: os.cpu_count() or 1)
+    noise: str = "gaussian"
+    nu: Prior = field(default_factory=lambda: Fixed(4.0))
+    hdi_prob: float = 0.9
+
+
+def _integer(value: Any, key: str, minimum: int) -> int:
+    value = number(value, key, integer=True)
+    if value < minimum:
+        raise ConfigError(f"{key}: must be at least {minimum}, got {value}")
+    return int(value)
+
+
+def parse_sampler(section: dict[str, Any], where: str) -> dict[str, Any]:
+    """The ``[sampler]`` section as keyword arguments (see the module docstring)."""
+    check_keys(section, ("walkers", "max_steps", "seed", "evidence", "live_points", "workers",
+                         "tau_multiple"), where)
+    out: dict[str, Any] = {}
+    if "walkers" in section:
+        out["walkers"] = _integer(section["walkers"], f"{where}.walkers", 4)
+    if "max_steps" in section:
+        out["max_steps"] = _integer(section["max_steps"], f"{where}.max_steps", 100)
+    if "seed" in section:
+        out["seed"] = _integer(section["seed"], f"{where}.seed", 0)
+    if "tau_multiple" in section:
+        out["tau_multiple"] = float(number(section["tau_multiple"], f"{where}.tau_multiple",
+                                           positive=True))
+    if "evidence" in section:
+        out["evidence"] = boolean(section["evidence"], f"{where}.evidence")
+    if "live_points" in section:
+        out["live_points"] = _integer(section["live_points"], f"{where}.live_points", 20)
+    if "workers" in section:
+        out["workers"] = _integer(section["workers"], f"{where}.workers", 1)
+    return out
+
+
+def parse_likelihood(section: dict[str, Any], where: str) -> dict[str, Any]:
+    """The ``[likelihood]`` section: ``noise`` and ``nu``."""
+    check_keys(section, ("noise", "nu"), where)
+    out: dict[str, Any] = {}
+    if "noise" in section:
+        out["noise"] = string(section["noise"], f"{where}.noise", NOISE_MODELS)
+    if "nu" in section:
+        out["nu"] = parse_prior(section["nu"], _NU, f"{where}.nu")
+    return out
+
+
+def parse_report(section: dict[str, Any], where: str) -> dict[str, Any]:
+    """The ``[report]`` section: ``hdi_prob``."""
+    check_keys(section, ("hdi_prob",), where)
+    out: dict[str, Any] = {}
+    if "hdi_prob" in section:
+        p = float(number(section["hdi_prob"], f"{where}.hdi_prob"))
+        if not 0 < p < 1:
+            raise ConfigError(f"{where}.hdi_prob: must lie strictly between 0 and 1, got {p:g}")
+        out["hdi_prob"] = p
+    return out
+
+
+def estimate_settings(sections: dict[str, dict[str, Any]]) -> EstimateSettings:
+    """Combine the parsed sections into :class:`EstimateSettings` (defaults elsewhere)."""
+    sampler = dict(sections.get("sampler", {}))
+    top = {k: sampler.pop(k) for k in ("evidence", "live_points", "workers") if k in sampler}
+    return EstimateSettings(sampler=SamplerSettings(**sampler), **top,
+                            **sections.get("likelihood", {}), **sections.get("report", {}))

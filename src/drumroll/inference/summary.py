@@ -1,0 +1,131 @@
+"""Posterior summaries and sampler diagnostics, in plain numbers and plain words."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import arviz as az
+import numpy as np
+
+from drumroll.inference.comparison import LooResult
+from drumroll.inference.inference_data import EXPORT
+from drumroll.inference.sampling import Chain
+
+
+def _number(value: Any) -> float | None:
+    """A JSON-safe float (None for NaN or infinity)."""
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9) -> dict[str, dict]:
+    """Mean, sd, median, HDI, R-hat and bulk/tail ESS of every posterior variable.
+
+    Returns
+    -------
+    dict
+        Variable → ``{"mean", "sd", "median", "hdi_low", "hdi_high", "hdi_prob", "r_hat",
+        "ess_bulk", "ess_tail"}`` (the ``summary.json`` contract; R-hat and ESS treat the
+        walkers as chains).
+    """
+    posterior = idata.posterior
+    hdi = az.hdi(posterior, hdi_prob=hdi_prob)
+    r_hat = az.rhat(posterior)
+    ess_bulk = az.ess(posterior, method="bulk")
+    ess_tail = az.ess(posterior, method="tail")
+    out = {}
+    for name, values in posterior.data_vars.items():
+        draws = np.asarray(values)
+        out[name] = {
+            "mean": _number(draws.mean()),
+            "sd": _number(draws.std(ddof=1)),
+            "median": _number(np.median(draws)),
+            "hdi_low": _number(hdi[name].sel(hdi="lower")),
+            "hdi_high": _number(hdi[name].sel(hdi="higher")),
+            "hdi_prob": hdi_prob,
+            "r_hat": _number(r_hat[name]),
+            "ess_bulk": _number(ess_bulk[name]),
+            "ess_tail": _number(ess_tail[name]),
+        }
+    return out
+
+
+def _at_prior_edge(idata: az.InferenceData, name: str) -> str | None:
+    """'lower'/'upper' when the posterior is cut off by that end of the prior's support.
+
+    The posterior is cut off when the prior's bound lies within two posterior standard
+    deviations of the posterior median: the bound, not the data, then shapes that side of
+    the interval (a scale-free test: it works for log-uniform jitter priors too).
+    """
+    if "prior" not in idata.groups() or name not in idata.prior:
+        return None
+    prior = np.asarray(idata.prior[name]).ravel()
+    post = np.asarray(idata.posterior[name]).ravel()
+    median, sd = np.median(post), np.std(post)
+    if not sd > 0:
+        return None
+    if median - np.min(prior) < 2.0 * sd:
+        return "lower"
+    if np.max(prior) - median < 2.0 * sd:
+        return "upper"
+    return None
+
+
+def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
+                settings: Any) -> dict[str, Any]:
+    """Convergence figures of one fit and warnings that say what to do.
+
+    Warnings are raised for: a chain stopped at ``max_steps`` before its autocorrelation time
+    was trusted; R-hat above the target; bulk or tail ESS below it; an acceptance fraction
+    outside 0.1–0.7; onsets with Pareto k > 0.7 (PSIS-LOO unreliable there); a sampled
+    parameter piled up against an end of its prior (the prior, not the data, decides it).
+    """
+    sampler = settings.sampler
+    model = idata.attrs.get("model", "?")
+    sampled = [EXPORT[n][0] for n in EXPORT if EXPORT[n][0] in
+               idata.sample_stats.attrs.get("tau_parameters", [])]
+    r_hat = az.rhat(idata.posterior)
+    ess_bulk = az.ess(idata.posterior, method="bulk")
+    ess_tail = az.ess(idata.posterior, method="tail")
+    warnings: list[str] = []
+    if not chain.converged:
+        warnings.append(f"{model}: the run stopped at the step limit ({chain.n_steps} steps) "
+                        f"before the chain was {sampler.tau_multiple:g} autocorrelation times "
+                        "long with R-hat and ESS on target; raise [sampler] max_steps")
+    for name in sampled:
+        rh, eb, et = float(r_hat[name]), float(ess_bulk[name]), float(ess_tail[name])
+        if not rh < sampler.max_r_hat:
+            warnings.append(f"{model}: R-hat of {name} is {rh:.3f} (target < "
+                            f"{sampler.max_r_hat}): the walkers disagree; run longer")
+        if not min(eb, et) >= sampler.min_ess:
+            warnings.append(f"{model}: {name} has only {min(eb, et):.0f} effective samples "
+                            f"(target {sampler.min_ess:.0f}); run longer")
+        edge = _at_prior_edge(idata, name)
+        if edge:
+            warnings.append(f"{model}: {name} piles up at the {edge} end of its prior: the "
+                            "prior, not the data, sets that side of its interval")
+    if not 0.1 <= chain.acceptance <= 0.7:
+        warnings.append(f"{model}: acceptance fraction {chain.acceptance:.2f} is outside "
+                        "0.1–0.7; the sampler is struggling")
+    if loo is not None and loo.bad_onsets:
+        listed = ", ".join(str(i) for i in loo.bad_onsets)
+        warnings.append(f"{model}: PSIS-LOO is approximate for onset(s) {listed} (Pareto k > "
+                        "0.7): leaving them out moves the posterior a lot, because they are "
+                        "influential (the first onset anchors every flight) or fit badly; "
+                        "check them in residuals.png, and treat a small Δelpd with care")
+    finite_tau = chain.tau[np.isfinite(chain.tau)]
+    return {
+        "converged": bool(chain.converged),
+        "n_steps": int(chain.n_steps),
+        "burn": int(chain.burn),
+        "thin": int(chain.thin),
+        "walkers": int(chain.samples.shape[0]),
+        "draws": int(chain.samples.shape[0] * chain.samples.shape[1]),
+        "tau_max": _number(finite_tau.max()) if finite_tau.size else None,
+        "acceptance": _number(chain.acceptance),
+        "r_hat_max": _number(max((float(r_hat[n]) for n in sampled), default=float("nan"))),
+        "ess_bulk_min": _number(min((float(ess_bulk[n]) for n in sampled),
+                                    default=float("nan"))),
+        "warnings": warnings,
+    }

@@ -1,0 +1,154 @@
+"""Writing an estimate to disk: ``summary.json``, ``posterior.nc``, ``report.md`` and figures.
+
+Everything is first written into a hidden staging folder inside the output folder and then
+renamed into place file by file, so an interrupted run (Ctrl-C included) leaves no
+half-written file, and existing files are replaced only with ``overwrite``.
+
+``posterior.nc`` holds the main model in ArviZ's standard groups (``az.from_netcdf`` opens it
+directly) and every compared model in groups suffixed with its name, e.g.
+``posterior_small_angle``; :func:`load_posteriors` splits them back into one InferenceData per
+model.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import arviz as az
+
+from drumroll import fileio
+from drumroll.errors import DrumrollError
+from drumroll.reporting.figures import FIGURE_FILES, write_figures
+from drumroll.reporting.onset_plot import write_onset_plot
+from drumroll.reporting.report import write_report
+
+#: Files an estimate writes, besides the figures.
+DATA_FILES = ("summary.json", "posterior.nc", "report.md")
+ONSETS_FIGURE = "onsets.png"
+
+
+def output_files(include_onsets_figure: bool = True) -> list[str]:
+    """Names of every file :func:`write_outputs` writes."""
+    names = [*DATA_FILES, *FIGURE_FILES.values()]
+    return [*names, ONSETS_FIGURE] if include_onsets_figure else names
+
+
+def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
+                  overwrite: bool = False) -> Path:
+    """Fail early (before any sampling) if an output would replace a file without leave."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise DrumrollError(f"{out_dir}: exists and is not a directory")
+    if not out_dir.parent.exists():
+        raise DrumrollError(f"{out_dir.parent}: no such directory")
+    if not overwrite and out_dir.is_dir():
+        existing = [name for name in names if (out_dir / name).exists()]
+        if existing:
+            raise DrumrollError(f"{out_dir}: would overwrite {', '.join(existing)} (use --force "
+                                "or another --out)")
+    return out_dir
+
+
+def _model_suffix(model: str) -> str:
+    return model.replace("-", "_")
+
+
+def save_posteriors(idatas: dict[str, az.InferenceData], main: str, path: Path) -> None:
+    """All models' InferenceData in one netCDF file (main model in the standard groups)."""
+    combined = idatas[main].copy()
+    for model, idata in idatas.items():
+        if model == main:
+            continue
+        combined.add_groups({f"{group}_{_model_suffix(model)}": getattr(idata, group)
+                             for group in idata.groups()})
+    combined.attrs["models"] = ",".join(idatas)
+    combined.attrs["main_model"] = main
+    combined.to_netcdf(str(path))
+
+
+def load_posteriors(path: str | os.PathLike[str]) -> dict[str, az.InferenceData]:
+    """Reopen ``posterior.nc``: model name → InferenceData (main model first).
+
+    Example
+    -------
+    >>> fits = load_posteriors("roll-estimate/posterior.nc")  # doctest: +SKIP
+    >>> az.summary(fits["pendulum"])                           # doctest: +SKIP
+    """
+    combined = az.from_netcdf(str(path))
+    models = str(combined.attrs.get("models", combined.attrs.get("model", "model"))).split(",")
+    main = str(combined.attrs.get("main_model", models[0]))
+    out: dict[str, az.InferenceData] = {}
+    for model in models:
+        suffix = "" if model == main else f"_{_model_suffix(model)}"
+        groups = {}
+        for group in combined.groups():
+            base = group[: -len(suffix)] if suffix and group.endswith(suffix) else group
+            if suffix and not group.endswith(suffix):
+                continue
+            if not suffix and any(group.endswith(f"_{_model_suffix(m)}") for m in models
+                                  if m != main):
+                continue
+            groups[base] = getattr(combined, group)
+        idata = az.InferenceData(**groups)
+        idata.attrs.update({"model": model})
+        out[model] = idata
+    return out
+
+
+def _json_safe(value: Any) -> Any:
+    """Replace NaN and infinities by None so the file is valid JSON."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bool = False,
+                  truths: dict[str, float] | None = None) -> dict[str, Path]:
+    """Write every output of ``result`` (a :class:`drumroll.estimate.Result`) into ``out_dir``.
+
+    Returns
+    -------
+    dict
+        Output name → final path.
+    """
+    audio = result.source if result.source is not None and result.source.suffix.lower() \
+        not in (".csv", ".txt", ".tsv", ".lab", ".labels") else None
+    names = output_files(include_onsets_figure=audio is not None)
+    out_dir = check_outputs(out_dir, names, overwrite=overwrite)
+    out_dir.mkdir(exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
+    try:
+        figures = write_figures(result.idatas, result.model, staging,
+                                comparison=result.summary["comparison"], truths=truths,
+                                overwrite=True)
+        if audio is not None:
+            figures["onsets"] = write_onset_plot(staging / ONSETS_FIGURE, audio, result.onsets,
+                                                 overwrite=True)
+        summary = _json_safe(result.summary)
+        fileio.write_text(staging / "summary.json", json.dumps(summary, indent=2) + "\n",
+                          overwrite=True)
+        save_posteriors(result.idatas, result.model, staging / "posterior.nc")
+        write_report(staging / "report.md", summary, figures, overwrite=True)
+        written = {}
+        for path in sorted(staging.iterdir()):
+            final = out_dir / path.name
+            if final.exists() and not overwrite:
+                raise DrumrollError(f"{final}: appeared while we were working; not replaced")
+            os.replace(path, final)
+            written[path.stem] = final
+        return written
+    finally:
+        with contextlib.suppress(OSError):
+            shutil.rmtree(staging)
