@@ -1,7 +1,7 @@
 """Write the bundled simulated recordings: the paper's eight set-ups, with known truth.
 
 For each set-up of Oss's Tables 1-2 and the soft/hard drumhead pair this writes, into
-``data/simulated/`` (or ``--out``):
+``data/`` (or ``--out``):
 
 * ``NAME.toml``: a config whose priors are the paper's measured values with their ± and
   whose ``[simulate]`` section holds the truth (alpha as the paper measured it);
@@ -93,7 +93,7 @@ tail_s = 1.0
 def main(argv: list[str] | None = None) -> int:
     """Write every set-up's config, recording and truth; return the exit status."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="data/simulated", help="folder to write into")
+    parser.add_argument("--out", default="data", help="folder to write into")
     parser.add_argument("--force", action="store_true", help="overwrite existing files")
     args = parser.parse_args(argv)
     out = Path(args.out)

@@ -1,0 +1,185 @@
+"""``estimate`` end to end on simulated onsets with known truth (no mocks)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drumroll.cli.main import estimate_main, main
+from drumroll.estimate import estimate
+from drumroll.inference.likelihood import OnsetData, gaussian_marginal
+from drumroll.inference.loo import conditional_pointwise
+from drumroll.physics import StickGeometry, bounce_sequence
+from drumroll.reporting.outputs import load_posteriors
+
+STICK = StickGeometry("cylinder-cone", 0.348, 0.060, 0.0075)
+
+BALL_CONFIG = textwrap.dedent("""\
+    model = "powerlaw"
+
+    [priors]
+    alpha = { dist = "uniform", low = 0.3, high = 1.0 }
+    t_b = { dist = "uniform", low = 0.05, high = 3.0 }
+    jitter_ms = { dist = "loguniform", low = 0.01, high = 10 }
+
+    [sampler]
+    evidence = false
+    workers = 1
+    """)
+
+
+def stick_config(compare: str, evidence: bool, height: float, sigma_h: float = 3.0) -> str:
+    return textwrap.dedent(f"""\
+        model = "pendulum"
+        compare = [{compare}]
+
+        [stick]
+        shape = "cylinder-cone"
+        length_mm = 348
+        tip_mm = 60
+        radius_mm = 7.5
+
+        [priors]
+        alpha = {{ dist = "uniform", low = 0.5, high = 1.0 }}
+        pivot_mm = {{ dist = "normal", mu = 131, sigma = 2 }}
+        height_mm = {{ dist = "normal", mu = {height}, sigma = {sigma_h} }}
+        jitter_ms = {{ dist = "loguniform", low = 0.01, high = 10 }}
+
+        [sampler]
+        evidence = {str(evidence).lower()}
+        """)
+
+
+def simulated_onsets(path: Path, times: np.ndarray) -> Path:
+    path.write_text("\n".join(f"{t:.7f}" for t in times) + "\n")
+    return path
+
+
+def drop_times(height_m: float, jitter_s: float, n: int, seed: int, alpha: float = 0.88,
+               release_speed: float = 0.0) -> np.ndarray:
+    b = bounce_sequence("pendulum", alpha=alpha, pivot=0.131, height=height_m,
+                        release_speed=release_speed, stick=STICK, n_flights=n - 1)
+    rng = np.random.default_rng(seed)
+    return 0.5 + b.impacts[0] + rng.normal(0.0, jitter_s, n)
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    """A bouncing ball (α = 0.7, t_B = 0.6 s, 1 ms jitter) fitted with the power law."""
+    tmp = tmp_path_factory.mktemp("ball")
+    rng = np.random.default_rng(3)
+    flights = 0.6 * 0.7 ** np.arange(1, 12)
+    times = 0.3 + np.concatenate([[0.0], np.cumsum(flights)]) + rng.normal(0, 1e-3, 12)
+    source = simulated_onsets(tmp / "ball.txt", times)
+    config = tmp / "ball.toml"
+    config.write_text(BALL_CONFIG)
+    out = tmp / "out"
+    code = main(["estimate", str(source), "--prior", str(config), "--out", str(out), "-q"])
+    return code, out, source, config
+
+
+def test_bouncing_ball_with_power_law_and_no_stick(ball):
+    code, out, _, _ = ball
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    alpha = summary["parameters"]["alpha"]
+    t_b = summary["parameters"]["t_b"]
+    assert alpha["hdi_low"] < 0.7 < alpha["hdi_high"]
+    assert abs(alpha["mean"] - 0.7) < 0.01
+    assert t_b["hdi_low"] < 0.6 < t_b["hdi_high"]
+    assert summary["model"] == "powerlaw" and summary["n_onsets"] == 12
+    for key in ("mean", "sd", "median", "hdi_low", "hdi_high", "hdi_prob", "r_hat", "ess_bulk",
+                "ess_tail"):
+        assert key in alpha
+    assert alpha["hdi_prob"] == 0.9
+    assert alpha["r_hat"] < 1.01 and alpha["ess_bulk"] >= 400
+    for name in ("report.md", "posterior.nc", "bounce_series.png", "corner.png", "trace.png",
+                 "residuals.png", "comparison.png"):
+        assert (out / name).stat().st_size > 0, name
+
+
+def test_posterior_file_reopens_with_every_group(ball):
+    _, out, _, _ = ball
+    fits = load_posteriors(out / "posterior.nc")
+    idata = fits["powerlaw"]
+    for group in ("posterior", "prior", "log_likelihood", "posterior_predictive",
+                  "observed_data", "sample_stats"):
+        assert group in idata.groups(), group
+    assert idata.log_likelihood["onset_time"].shape[-1] == 12
+
+
+def test_existing_outputs_are_kept_without_force(ball, capsys):
+    code, out, source, config = ball
+    before = (out / "summary.json").read_bytes()
+    code = main(["estimate", str(source), "--prior", str(config), "--out", str(out), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--force" in err and len(err.strip().splitlines()) == 1
+    assert (out / "summary.json").read_bytes() == before
+
+
+def test_estimate_alias_and_bad_inputs(tmp_path, capsys):
+    config = tmp_path / "c.toml"
+    config.write_text(BALL_CONFIG)
+    for argv, fragment in [
+        ([str(tmp_path / "missing.wav"), "--prior", str(config)], "no such file"),
+        ([str(tmp_path), "--prior", str(config)], "directory"),
+    ]:
+        assert estimate_main(argv) == 2
+        err = capsys.readouterr().err
+        assert fragment in err and len(err.strip().splitlines()) == 1
+    few = simulated_onsets(tmp_path / "few.txt", np.array([0.1, 0.5, 0.8]))
+    assert estimate_main([str(few), "--prior", str(config), "--out", str(tmp_path / "o")]) == 2
+    assert "at least 4" in capsys.readouterr().err
+
+
+def test_alias_is_installed_and_prints_no_traceback(tmp_path):
+    proc = subprocess.run([sys.executable, "-c", "from drumroll.cli.main import estimate_main;"
+                           "raise SystemExit(estimate_main())", "nothing.wav", "--prior",
+                           "nothing.toml"], capture_output=True, text=True, check=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+
+
+def test_conditional_pointwise_is_the_ratio_of_marginals():
+    """log p(t_i | t_-i, θ) = log p(t | θ) − log p(t_-i | θ) with T0 marginalised."""
+    rng = np.random.default_rng(1)
+    times = np.sort(rng.random(7)) * 2
+    sigmas = rng.random(7) * 1e-3
+    impacts = np.cumsum(np.r_[0, rng.random(6)])[None, :] * 0.5
+    jitter = np.array([2e-3])
+    data = OnsetData.from_arrays(times, sigmas)
+    pointwise = conditional_pointwise(data, impacts, jitter)[0]
+    full = gaussian_marginal(data, impacts, jitter)[0][0]
+    for i in range(7):
+        keep = np.arange(7) != i
+        part = gaussian_marginal(OnsetData.from_arrays(times[keep], sigmas[keep]),
+                                 impacts[:, keep], jitter)[0][0]
+        assert pointwise[i] == pytest.approx(full - part, abs=1e-9)
+
+
+@pytest.mark.slow
+def test_pendulum_preferred_for_large_contact_angle_and_small_jitter(tmp_path):
+    source = simulated_onsets(tmp_path / "big.txt", drop_times(0.150, 1e-4, 22, seed=5))
+    config = tmp_path / "c.toml"
+    config.write_text(stick_config('"small-angle"', evidence=True, height=150))
+    result = estimate(source, config)
+    assert result.preferred == "pendulum"
+    row = result.summary["comparison"][0]
+    assert row["elpd_loo_diff"] > 4 and row["log_bayes_factor"] > 1
+    alpha = result.parameter("alpha")
+    assert alpha["hdi_low"] < 0.88 < alpha["hdi_high"]
+
+
+@pytest.mark.slow
+def test_no_preference_claimed_for_small_contact_angle_and_large_jitter(tmp_path):
+    source = simulated_onsets(tmp_path / "small.txt", drop_times(0.030, 2e-3, 16, seed=6))
+    config = tmp_path / "c.toml"
+    config.write_text(stick_config('"small-angle"', evidence=True, height=30, sigma_h=2))
+    result = estimate(source, config)
+    assert result.preferred is None
+    assert "cannot tell" in result.summary["verdict"]
