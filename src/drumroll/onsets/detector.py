@@ -110,14 +110,14 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
     if len(c) == 0:
         raise AudioError(f"no drumroll found in {name}: no impact-like sound in it")
     tr = track(c, p)
-    if tr.index.size < p.min_onsets or tr.score <= 0:
-        if tr.index.size <= 1 or tr.score <= 0:
-            raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
-                             "(a single hit, noise or silence?)")
-        raise AudioError(f"no drumroll found in {name}: only {tr.index.size} impacts in a "
+    if tr.index.size <= 1 or tr.score <= 0:
+        raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
+                         "(a single hit, noise or silence?)")
+    # Three tracked onsets already predict a fourth: the targeted search may supply it.
+    cols = _extend(c.subset(tr.index), p, odf, rate, excerpt, total)
+    if cols[0].size < p.min_onsets:
+        raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
                          f"row, a drumroll needs at least {p.min_onsets}")
-    kept = c.subset(tr.index)
-    cols = _extend(kept, p, odf, rate, excerpt, total)
     times = cols[0]
     near = np.searchsorted(times, c.time_s).clip(1, times.size - 1)
     dist = np.minimum(np.abs(c.time_s - times[near - 1]), np.abs(c.time_s - times[near]))
@@ -136,27 +136,29 @@ _SAME_ONSET_S = 0.001
 
 def _extend(kept: Candidates, p: TrackParams, odf: OdfParams, rate: int,
             excerpt: Callable[[int, int], np.ndarray], total: int) -> tuple[np.ndarray, ...]:
-    """The tracked roll up to its last clearly significant onset, followed from there by the
-    targeted search of :mod:`.follow`. Returns time, amplitude, SNR and sigma columns."""
+    """The tracked roll, followed past its last onset by the targeted search of
+    :mod:`.follow`. Returns time, amplitude, SNR and sigma columns."""
+    # Trailing onsets quieter than what they land in were carried by their timing alone;
+    # their start cannot be told to the sample, so the roll is reported up to the last one
+    # that can (but never below the fewest onsets that make a roll).
+    fp = FollowParams(ratio_jitter=p.ratio_jitter)
+    timeable = np.flatnonzero(kept.snr_db >= fp.min_snr_db)
+    keep = max(int(timeable[-1]) + 1 if timeable.size else 0, min(p.min_onsets, len(kept)))
+    kept = kept.subset(np.arange(keep))
     cols = (kept.time_s, kept.amplitude, kept.snr_db, kept.sigma_s)
-    strong = np.flatnonzero(kept.z >= p.evidence_z)
-    cut = max(int(strong[-1]) + 1 if strong.size else 0, 3)
     if len(kept) < 3:
         return cols
-    base = tuple(col[:cut] for col in cols)
-    t = base[0]
+    t = kept.time_s
     flights = np.diff(t)
     ratio = float(np.clip(flights[-1] / flights[-2], p.min_ratio, 0.98))
     # The roll cannot last longer than the geometric series of its remaining flights.
-    horizon = flights[-1] * ratio / (1.0 - ratio)
-    end_s = min(max(t[-1] + horizon, kept.time_s[-1]) + 0.05, total / rate)
+    end_s = min(t[-1] + flights[-1] * ratio / (1.0 - ratio) + 0.05, total / rate)
     start = max(int((t[0] - _CONTEXT_S) * rate), 0)
     stop = min(int((end_s + _CONTEXT_S) * rate), total)
     ex = Excerpt(excerpt(start, stop), start, rate, odf)
-    found = follow(list(t), list(base[3]), ex, FollowParams(ratio_jitter=p.ratio_jitter),
-                   p.min_interval_s, end_s)
+    found = follow(list(t), list(kept.sigma_s), ex, fp, p.min_interval_s, end_s)
     return tuple(np.concatenate((b, np.asarray(f, dtype=float)))
-                 for b, f in zip(base, (found.time_s, found.amplitude, found.snr_db,
+                 for b, f in zip(cols, (found.time_s, found.amplitude, found.snr_db,
                                         found.sigma_s), strict=True))
 
 

@@ -16,6 +16,7 @@ bounce is masked) is no longer significant.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -48,6 +49,10 @@ class FollowParams:
         Floor on the scatter (natural log) of one flight about the trend.
     tail_quantile
         Quantile of the detection function above which its tail is fitted.
+    min_snr_db
+        Least own-sound-to-background ratio (:attr:`~.refine.Refined.snr_db`) of an onset
+        that is reported: an impact quieter than the ring and noise it lands in is heard
+        (the window is significant) but its start cannot be told to the sample.
     """
 
     false_alarm: float = 0.01
@@ -55,6 +60,7 @@ class FollowParams:
     history: int = 6
     ratio_jitter: float = 0.05
     tail_quantile: float = 0.95
+    min_snr_db: float = 0.0
 
 
 @dataclass
@@ -118,11 +124,15 @@ class Excerpt:
 
 
 def _tail(z: np.ndarray, q: float) -> tuple[float, float, float]:
-    """Exponential fit to the upper tail of ``z``: threshold ``u``, exceedance probability
-    ``1 - q`` and mean excess ``beta``."""
+    """Exponential fit to the upper tail of ``z``: threshold ``u`` (the ``q`` quantile),
+    exceedance probability ``1 - q`` and scale ``beta``.
+
+    The scale comes from the median excess (``beta ln 2`` for an exponential tail), so the
+    roll's own impacts, a few frames far out in the tail, do not inflate it.
+    """
     u = float(np.quantile(z, q))
     excess = z[z > u] - u
-    beta = float(excess.mean()) if excess.size else 1.0
+    beta = float(np.median(excess)) / math.log(2.0) if excess.size else 1.0
     return u, 1.0 - q, max(beta, 1e-3)
 
 
@@ -148,6 +158,7 @@ def follow(times: list[float], sigmas: list[float], ex: Excerpt, p: FollowParams
     out = Found([], [], [], [])
     hop_s = ex.hop / ex.sr
     tails: dict[tuple[int, int], tuple[float, float, float]] = {}
+    ref = _reference_frames(np.asarray(times), ex)
     while len(t) >= 3:
         pred = _predict(np.asarray(t), np.asarray(sig), p)
         if pred is None:
@@ -157,7 +168,7 @@ def follow(times: list[float], sigmas: list[float], ex: Excerpt, p: FollowParams
             dt, s_log = pred(n_ahead)
             if dt < min_interval_s or t[-1] + dt > stop_s:
                 break
-            got = _search(t[-1], dt, s_log, ex, p, tails, hop_s)
+            got = _search(t[-1], dt, s_log, ex, p, tails, hop_s, ref)
             if got is not None:
                 break
         if got is None:
@@ -170,6 +181,22 @@ def follow(times: list[float], sigmas: list[float], ex: Excerpt, p: FollowParams
         out.snr_db.append(r.snr_db)
         out.sigma_s.append(r.sigma_s)
     return out
+
+
+def _reference_frames(t: np.ndarray, ex: Excerpt) -> np.ndarray:
+    """Frames where the detection function shows the roll's background and nothing else:
+    the middle halves of the flights between known onsets (the ring-down, the noise; an
+    echo or double hit there only makes the threshold more conservative). Before the roll
+    when it is too short to give enough of them."""
+    ref = np.zeros(ex.n_frames, dtype=bool)
+    for a, b in itertools.pairwise(t):
+        lo, hi = ex.frame(a + 0.25 * (b - a)), ex.frame(a + 0.75 * (b - a))
+        ref[max(lo, 0): max(hi, 0)] = True
+    if np.count_nonzero(ref) < 200:
+        ref[: max(ex.frame(t[0]) - 40, 0)] = True
+    if not ref.any():
+        ref[:] = True
+    return ref
 
 
 def _predict(t: np.ndarray, sig: np.ndarray, p: FollowParams):
@@ -210,8 +237,9 @@ def _predict(t: np.ndarray, sig: np.ndarray, p: FollowParams):
 
 
 def _search(t_last: float, dt: float, s_log: float, ex: Excerpt, p: FollowParams,
-            tails: dict, hop_s: float):
-    """Test the window around ``t_last + dt``; the refined onset if significant, else None."""
+            tails: dict, hop_s: float, ref: np.ndarray):
+    """Test the window around ``t_last + dt``; the refined onset if significant, else None.
+    ``ref`` flags the frames whose detection function is the noise reference."""
     half = max(p.width_sigmas * s_log * dt, 2 * hop_s)
     lo_t, hi_t = t_last + dt - half, t_last + dt + half
     # Windows shorter than the flight, so the previous bounce is not in the reference.
@@ -226,7 +254,7 @@ def _search(t_last: float, dt: float, s_log: float, ex: Excerpt, p: FollowParams
         return None
     key = (pre, post)
     if key not in tails:
-        tails[key] = _tail(z[pre: ex.n_frames - post], p.tail_quantile)
+        tails[key] = _tail(z[ref], p.tail_quantile)
     u, q_u, beta = tails[key]
     width = b - a
     # P(max of `width` tail frames > x) = false_alarm, frames taken as independent.
@@ -244,4 +272,6 @@ def _search(t_last: float, dt: float, s_log: float, ex: Excerpt, p: FollowParams
     fit = max(4 * 16, min(round(0.006 * ex.sr), round(0.5 * dt * ex.sr)))
     r = refine_window(ex.x, ex.start, guess, ex.sr, ex.ba, ex.settle, pre=back + fit,
                       post=max(2, round(0.002 * ex.sr)), search=back, search_after=ahead)
+    if r.snr_db < p.min_snr_db:  # there is a sound, but not one that can be timed
+        return None
     return r.sample / ex.sr, r

@@ -55,6 +55,12 @@ class TrackParams:
         Log odds against one bounce missing between two detected ones.
     beam
         Hypotheses kept per onset (the best paths ending there, whatever came before).
+    louder_between_db
+        How much louder than both of two consecutive bounces a sound between them may
+        measure: only the first one's echoes, ring and double hits come between them, all
+        quieter than it, so this is the scatter of the amplitude measurement (a peak within
+        a few ms of the onset, which a ringing drum can inflate). A path may not skip over a
+        louder sound, which keeps it from hopping between the tails of successive rolls.
     min_onsets
         Fewest onsets that make a roll: three intervals give two ratios, one to predict and one
         to test.
@@ -69,6 +75,7 @@ class TrackParams:
     evidence_max: float = 1.5
     skip_penalty: float = 3.0
     min_onsets: int = 4
+    louder_between_db: float = 6.0
     beam: int = 12
 
 
@@ -106,7 +113,8 @@ def track(c: Candidates, params: TrackParams | None = None) -> Track:
     best_path: list[int] = []
     best_score = -math.inf
     for lo, hi in stretches(c.time_s, p.max_interval_s):
-        path, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], p).run()
+        path, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], c.amplitude[lo:hi],
+                            p).run()
         if path and score > best_score:
             best_path, best_score = [lo + i for i in path], score
     if not best_path:
@@ -125,12 +133,15 @@ class _Beam:
     compacted now and then so that memory stays bounded however long the stretch is.
     """
 
-    def __init__(self, t: np.ndarray, w: np.ndarray, sigma: np.ndarray,
+    def __init__(self, t: np.ndarray, w: np.ndarray, sigma: np.ndarray, amp: np.ndarray,
                  p: TrackParams) -> None:
-        self.t, self.w, self.p = t, w, p
+        self.t, self.w, self.p, self.amp = t, w, p, amp
+        self.louder = 10.0 ** (p.louder_between_db / 20.0)
         self.sig2 = np.square(np.maximum(sigma, 1e-6))
         self.strong = np.flatnonzero(w >= 0)
-        self.log_width = math.log(2.0 / p.min_ratio)  # background range of log(ratio)
+        # Background: log(interval ratio) uniform over [log(min_ratio), log(2)], i.e. a
+        # density of 1 / log_width.
+        self.log_width = math.log(2.0 / p.min_ratio)
         self.first_gain = math.log(self.log_width / math.log(1.0 / p.min_ratio))
         cap = max(64, 8 * p.beam)
         self.h = {name: np.empty(cap) for name in ("score", "rho", "last")}
@@ -178,6 +189,9 @@ class _Beam:
         last, rho = h["last"][idx], h["rho"][idx]
         new = t[k] - t[j]
         ok = (new >= np.maximum(p.min_ratio * last, p.min_interval_s)) & (new <= 2.2 * last)
+        # Between two consecutive bounces come only the last one's echoes, ring and double
+        # hits, all quieter than it: a path that skips over a louder sound is not a roll.
+        ok &= self._loudest_between(j, k) <= self.louder * np.maximum(self.amp[j], self.amp[k])
         seed = np.isnan(rho)
         ok &= ~seed | (new <= last * math.exp(3.0 * p.ratio_jitter))
         if not ok.any():
@@ -193,7 +207,7 @@ class _Beam:
             pred = last * (r if m == 0 else r + r * r)
             var = jit2 * (m + 1) + tim2
             gains.append(-0.5 * np.log(new / pred) ** 2 / var - 0.5 * np.log(var) - norm
-                         + self.log_width - m * p.skip_penalty)
+                         + math.log(self.log_width) - m * p.skip_penalty)
         skip = gains[1] > gains[0]
         gain = np.where(seed, self.first_gain, np.maximum(gains[0], gains[1]))
         skip &= ~seed
@@ -205,6 +219,14 @@ class _Beam:
         score = h["score"][idx] + self.w[k] + gain
         return score, rho_new, step, j, idx
 
+    def _loudest_between(self, j: np.ndarray, k: int) -> np.ndarray:
+        """For each onset ``j`` before ``k``, the largest amplitude strictly between them."""
+        lo = int(j.min())
+        inner = self.amp[lo + 1: k]
+        # suffix[m] = max(amp[lo + 1 + m: k]); a pair of neighbours has nothing in between.
+        suffix = np.concatenate((np.maximum.accumulate(inner[::-1])[::-1], [0.0]))
+        return suffix[j - lo]
+
     def _seeds(self, k: int) -> tuple | None:
         """New paths ``(i, k)``: a roll opens with two clearly significant onsets."""
         p, t = self.p, self.t
@@ -214,6 +236,9 @@ class _Beam:
         a = np.searchsorted(t[s], t[k] - p.max_interval_s, side="left")
         b = np.searchsorted(t[s], t[k] - p.min_interval_s, side="right")
         i = s[a:b]
+        if i.size:
+            i = i[self._loudest_between(i, k)
+                  <= self.louder * np.maximum(self.amp[i], self.amp[k])]
         if i.size == 0:
             return None
         return (self.w[i] + self.w[k], np.full(i.size, np.nan), t[k] - t[i], i,
