@@ -33,6 +33,13 @@ class OnsetData:
     times: NDArray
     sigmas: NDArray
 
+    def __post_init__(self) -> None:
+        # The extractor's uncertainty when every onset has the same one (else None): the
+        # lean likelihood's fast case.
+        sigmas = np.asarray(self.sigmas, float)
+        equal = sigmas.size > 0 and bool(np.all(sigmas == sigmas[0]))
+        object.__setattr__(self, "_equal_sigma", float(sigmas[0]) if equal else None)
+
     @classmethod
     def from_arrays(cls, times: ArrayLike, sigmas: ArrayLike | None = None) -> OnsetData:
         """Validate and store onsets; ``sigmas`` default to zero."""
@@ -71,7 +78,7 @@ def gaussian_marginal(data: OnsetData, impacts: NDArray, jitter: NDArray
     log_like, t0_mean, t0_sd
         Each of shape ``(batch,)``; ``log_like`` is −inf where ``impacts`` is NaN.
     """
-    variance = jitter[:, None] ** 2 + data.sigmas**2
+    variance = _column(jitter) ** 2 + data.sigmas**2
     weight = 1.0 / variance
     residual = data.times - impacts
     sum_w = weight.sum(axis=1)
@@ -84,16 +91,45 @@ def gaussian_marginal(data: OnsetData, impacts: NDArray, jitter: NDArray
     return log_like, t0_mean, 1.0 / np.sqrt(sum_w)
 
 
+def gaussian_marginal_lean(data: OnsetData, impacts: NDArray, jitter: NDArray | float
+                           ) -> NDArray | float:
+    """:func:`gaussian_marginal`'s log-likelihood alone, in fewer array operations.
+
+    ``impacts`` is ``(batch, N + 1)`` with ``jitter`` ``(batch,)``, or one sequence ``(N + 1,)``
+    with a float ``jitter``. When every onset has the same extractor uncertainty (the usual
+    case, e.g. all zero) the weights are equal within a row, so T0's conditional mean is the
+    plain mean of the residuals and the weights factor out of the sums. Non-finite results
+    are not cleaned up: the caller masks invalid rows.
+    """
+    sigma = data._equal_sigma
+    if sigma is None:
+        if np.ndim(impacts) == 1:
+            return float(gaussian_marginal(data, impacts[None, :], np.atleast_1d(jitter))[0][0])
+        return gaussian_marginal(data, impacts, jitter)[0]
+    n = data.n_onsets
+    residual = data.times - impacts
+    residual -= residual.sum(axis=-1, keepdims=True) * (1.0 / n)
+    variance = jitter * jitter + sigma * sigma
+    chi2 = np.einsum("...i,...i->...", residual, residual) / variance
+    return (-0.5 * chi2 - 0.5 * (n - 1) * np.log(variance)
+            - (0.5 * ((n - 1) * _LOG_2PI + math.log(n)) + math.log(T0_WINDOW_S)))
+
+
 def pointwise_log_likelihood(data: OnsetData, impacts: NDArray, jitter: NDArray, t0: NDArray,
                              noise: str = "gaussian", nu: NDArray | None = None) -> NDArray:
     """log p(t_k | θ, T0) for every onset, shape ``(batch, N + 1)`` (for PSIS-LOO)."""
-    scale2 = jitter[:, None] ** 2 + data.sigmas**2
-    z2 = (data.times - t0[:, None] - impacts) ** 2 / scale2
+    scale2 = _column(jitter) ** 2 + data.sigmas**2
+    z2 = (data.times - _column(t0) - impacts) ** 2 / scale2
     if noise == "gaussian":
         return -0.5 * (z2 + np.log(scale2) + _LOG_2PI)
-    nu = nu[:, None]
+    nu = _column(nu)  # a fixed ν arrives as a scalar
     return (special.gammaln(0.5 * (nu + 1.0)) - special.gammaln(0.5 * nu)
             - 0.5 * np.log(nu * math.pi * scale2) - 0.5 * (nu + 1.0) * np.log1p(z2 / nu))
+
+
+def _column(value: NDArray | float) -> NDArray | float:
+    """A per-row parameter as a column against the onsets; a fixed (scalar) one as it is."""
+    return np.asarray(value, float)[:, None] if np.ndim(value) else value
 
 
 def student_t(data: OnsetData, impacts: NDArray, jitter: NDArray, t0: NDArray, nu: NDArray

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,6 +13,7 @@ from drumroll.inference.likelihood import (
     T0_WINDOW_S,
     OnsetData,
     gaussian_marginal,
+    gaussian_marginal_lean,
     pointwise_log_likelihood,
     student_t,
 )
@@ -56,8 +58,49 @@ class LogPosterior:
             raise ValueError(f"unknown noise model {noise!r}")
         return cls(ParameterSpace.build(config, model, extra), data, noise)
 
+    def __post_init__(self) -> None:
+        names = self.space.names
+        object.__setattr__(self, "_jitter_column",
+                           names.index("jitter") if "jitter" in names else None)
+
     def log_likelihood(self, x: NDArray) -> NDArray:
-        """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise)."""
+        """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise); −inf where
+        the physics forbids the point.
+
+        This is the lean path (:meth:`ParameterSpace.impacts` and
+        :func:`~drumroll.inference.likelihood.gaussian_marginal_lean`); the general one,
+        through :class:`~drumroll.physics.Bounces`, is :meth:`log_likelihood_reference`.
+        """
+        x = np.atleast_2d(np.asarray(x, float))
+        impacts, valid = self.space.impacts(x, self.data.n_flights)
+        with np.errstate(all="ignore"):
+            if self.noise == "gaussian":
+                i = self._jitter_column
+                jitter = (x[:, i] if i is not None
+                          else np.full(x.shape[0], self.space.priors["jitter"].value))
+                out = gaussian_marginal_lean(self.data, impacts, jitter)
+            else:
+                v = self.space.values(x)
+                out = student_t(self.data, impacts, v["jitter"], v["t0"], v["nu"])
+        ok = valid & np.isfinite(out)
+        return out if ok.all() else np.where(ok, out, -np.inf)
+
+    def log_likelihood_one(self, x: NDArray) -> float:
+        """The log-likelihood of one point ``(ndim,)`` as a float: nested sampling's path."""
+        if self.noise != "gaussian":
+            return float(self.log_likelihood(x[None, :])[0])
+        impacts = self.space.impacts_one(x, self.data.n_flights)
+        if impacts is None:
+            return -math.inf
+        i = self._jitter_column
+        jitter = float(x[i]) if i is not None else self.space.priors["jitter"].value
+        with np.errstate(all="ignore"):
+            value = float(gaussian_marginal_lean(self.data, impacts, jitter))
+        return value if math.isfinite(value) else -math.inf
+
+    def log_likelihood_reference(self, x: NDArray) -> NDArray:
+        """The log-likelihood through the full forward model (:class:`Bounces`): slower, the
+        reference the lean path is tested against."""
         v = self.space.values(x)
         impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
         if self.noise == "gaussian":
@@ -65,14 +108,30 @@ class LogPosterior:
         return student_t(self.data, impacts, v["jitter"], v["t0"], v["nu"])
 
     def __call__(self, x: NDArray) -> NDArray | float:
-        single = np.ndim(x) == 1
+        x = np.asarray(x, float)
+        single = x.ndim == 1
+        if single:
+            x = x[None, :]
+        out = self.space.log_prior(x)
+        if single:
+            return float(out[0] + self.log_likelihood_one(x[0])) if out[0] > -math.inf \
+                else -math.inf
+        inside = np.isfinite(out)
+        if inside.all():
+            out = out + self.log_likelihood(x)
+        elif inside.any():
+            out[inside] += self.log_likelihood(x[inside])
+        return float(out[0]) if single else out
+
+    def reference(self, x: NDArray) -> NDArray:
+        """:meth:`__call__` through the general path (per-column priors, full forward model)."""
         x = np.atleast_2d(x)
-        log_prior = self.space.log_prior(x)
+        log_prior = self.space.log_prior_by_column(x)
         out = np.full(x.shape[0], -np.inf)
         inside = np.isfinite(log_prior)
         if inside.any():
-            out[inside] = log_prior[inside] + self.log_likelihood(x[inside])
-        return float(out[0]) if single else out
+            out[inside] = log_prior[inside] + self.log_likelihood_reference(x[inside])
+        return np.where(np.isfinite(out), out, -np.inf)
 
     def conditional_t0(self, x: NDArray, rng: np.random.Generator) -> NDArray:
         """T0 per row: sampled from its exact conditional (Gaussian) or read from ``x``."""

@@ -1,0 +1,139 @@
+"""The samplers' lean paths equal the general ones (full forward model, per-column priors).
+
+``LogPosterior.__call__`` / ``log_likelihood`` / ``log_likelihood_one`` and
+``ParameterSpace.log_prior`` / ``prior_transform`` are written for speed; here they are checked
+against the reference implementations on random prior draws, on draws pushed outside the prior
+or the physics, and on special values, for every model and several set-ups.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drumroll.config import parse_config
+from drumroll.inference.likelihood import OnsetData
+from drumroll.inference.posterior import LogPosterior
+from drumroll.physics import StickGeometry, bounce_sequence
+
+BASE = {
+    "model": "pendulum",
+    "stick": {"shape": "cylinder-cone", "length_mm": {"dist": "normal", "mu": 348, "sigma": 1},
+              "tip_mm": {"dist": "normal", "mu": 60, "sigma": 1}, "radius_mm": 7.5},
+    "priors": {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
+               "pivot_mm": {"dist": "normal", "mu": 131, "sigma": 2},
+               "height_mm": {"dist": "normal", "mu": 80, "sigma": 3},
+               "release_speed_m_s": 0, "release_angle_deg": 0,
+               "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10},
+               "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0}},
+}
+
+
+def _config(variant: str):
+    raw = {k: (dict(v) if isinstance(v, dict) else v) for k, v in BASE.items()}
+    priors, stick = raw["priors"], raw["stick"]
+    if variant == "release":  # sampled release speed and angle, wide height and pivot
+        priors["release_speed_m_s"] = {"dist": "halfnormal", "sigma": 0.5}
+        priors["release_angle_deg"] = {"dist": "normal", "mu": 0, "sigma": 10}
+        priors["height_mm"] = {"dist": "uniform", "low": 10, "high": 300}
+        priors["pivot_mm"] = {"dist": "lognormal", "mu": math.log(131), "sigma": 0.3}
+    elif variant == "thin-rod":
+        raw["stick"] = {"shape": "thin-rod", "length_mm": {"dist": "normal", "mu": 408,
+                                                          "sigma": 2}}
+        priors["alpha"] = {"dist": "beta", "a": 20, "b": 3}
+    elif variant == "radius":
+        stick["radius_mm"] = {"dist": "uniform", "low": 5, "high": 10}
+        priors["jitter_ms"] = {"dist": "halfnormal", "sigma": 1.0}
+    return parse_config(raw)
+
+
+def _data(sigmas: bool) -> OnsetData:
+    stick = StickGeometry("cylinder-cone", 0.348, 0.06, 0.0075)
+    b = bounce_sequence("pendulum", alpha=0.88, pivot=0.131, height=0.08, stick=stick,
+                        n_flights=25)
+    rng = np.random.default_rng(0)
+    times = 1.234 + b.impacts[0] + rng.normal(0, 1e-4, 26)
+    return OnsetData.from_arrays(times, rng.uniform(0, 3e-4, 26) if sigmas else None)
+
+
+def _points(lp: LogPosterior, rng: np.random.Generator) -> np.ndarray:
+    """Prior draws, draws from a cube 40 % wider than the prior's (many invalid), and junk."""
+    space = lp.space
+    inside = space.sample_prior(rng, 300)
+    wide = space.prior_transform_by_column(np.full((300, space.ndim), 0.5))
+    spread = np.std(inside, axis=0)
+    wide = wide + spread * rng.normal(0, 30, (300, space.ndim))
+    junk = inside[:6].copy()
+    junk[0, 0] = np.nan
+    junk[1, 0] = 1.2  # alpha > 1
+    junk[2, 0] = 1.0  # alpha == 1: valid unless it goes over the top
+    junk[3] = np.inf
+    junk[4, -1] = -1.0
+    return np.concatenate([inside, wide, junk])
+
+
+CASES = [(model, variant, sigmas, noise)
+         for model in ("pendulum", "small-angle", "powerlaw")
+         for variant, sigmas, noise in (("table1", False, "gaussian"),
+                                        ("release", True, "gaussian"),
+                                        ("thin-rod", False, "gaussian"),
+                                        ("radius", True, "student-t"))]
+
+
+@pytest.mark.parametrize(("model", "variant", "sigmas", "noise"), CASES)
+def test_lean_log_posterior_equals_reference(model, variant, sigmas, noise):
+    """Batch and one-point paths agree with the general path to 1e-12, −inf included."""
+    lp = LogPosterior.build(_config(variant), model, _data(sigmas), noise)
+    rng = np.random.default_rng(hash((model, variant)) % 2**32)
+    x = _points(lp, rng)
+    want = lp.reference(x)
+    with np.errstate(all="raise"):  # the lean paths never warn
+        got = lp(x)
+        one = np.array([lp(row) for row in x])
+        like_one = np.array([lp.log_likelihood_one(row) for row in x])
+    finite = np.isfinite(want)
+    assert finite.sum() > 150 and (~finite).sum() > 30  # both kinds are exercised
+    for value in (got, one):
+        np.testing.assert_array_equal(np.isfinite(value), finite)
+        np.testing.assert_allclose(value[finite], want[finite], rtol=1e-12, atol=1e-9)
+        assert np.all(value[~finite] == -np.inf)
+    like = lp.log_likelihood_reference(x[finite])
+    np.testing.assert_allclose(lp.log_likelihood(x[finite]), like, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(like_one[finite], like, rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize("variant", ["table1", "release", "thin-rod", "radius"])
+@pytest.mark.parametrize("model", ["pendulum", "powerlaw"])
+def test_prior_table_equals_per_column_priors(model, variant):
+    lp = LogPosterior.build(_config(variant), model, _data(False))
+    space, rng = lp.space, np.random.default_rng(3)
+    u = rng.random((500, space.ndim))
+    u[:5] = [0.0, 1.0, 0.5, 1e-12, 1 - 1e-12][:5] if space.ndim == 1 else u[:5]
+    u[0], u[1] = 0.0, 1.0
+    np.testing.assert_allclose(space.prior_transform(u), space.prior_transform_by_column(u),
+                               rtol=1e-13, atol=0)
+    np.testing.assert_allclose(space.prior_transform(u[7]),
+                               space.prior_transform_by_column(u[7]), rtol=1e-13)
+    x = _points(lp, rng)
+    want = space.log_prior_by_column(x)
+    got = space.log_prior(x)
+    np.testing.assert_array_equal(np.isfinite(got), np.isfinite(want))
+    finite = np.isfinite(want)
+    np.testing.assert_allclose(got[finite], want[finite], rtol=1e-12, atol=1e-12)
+
+
+def test_lean_impacts_match_bounces_on_valid_points():
+    lp = LogPosterior.build(_config("release"), "pendulum", _data(False))
+    x = lp.space.sample_prior(np.random.default_rng(5), 400)
+    bounces = lp.space.bounces(x, 25)
+    impacts, valid = lp.space.impacts(x, 25)
+    np.testing.assert_array_equal(valid, bounces.valid)
+    assert valid.sum() > 100
+    np.testing.assert_allclose(impacts[valid], bounces.impacts[valid], rtol=1e-13, atol=1e-15)
+    for row in np.flatnonzero(valid)[:50]:
+        np.testing.assert_allclose(lp.space.impacts_one(x[row], 25), bounces.impacts[row],
+                                   rtol=1e-13, atol=1e-15)
+    for row in np.flatnonzero(~valid)[:50]:
+        assert lp.space.impacts_one(x[row], 25) is None
