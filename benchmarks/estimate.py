@@ -27,11 +27,11 @@ import emcee
 import numpy as np
 
 from drumroll.config import load_config
-from drumroll.estimate import load_onsets
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.mode import find_mode
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import SamplerSettings, initial_ball, run_emcee
+from drumroll.pipeline import load_onsets
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from drumroll.cli.main import estimate_main, main
-from drumroll.estimate import estimate
 from drumroll.inference.likelihood import OnsetData, gaussian_marginal
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.physics import StickGeometry, bounce_sequence
+from drumroll.pipeline import estimate
 from drumroll.reporting.outputs import load_posteriors
 
 STICK = StickGeometry("cylinder-cone", 0.348, 0.060, 0.0075)

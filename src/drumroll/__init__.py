@@ -23,4 +23,14 @@ try:
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0+unknown"
 
-__all__ = ["__version__"]
+__all__ = ["__version__", "estimate"]
+
+
+def __getattr__(name: str):
+    # ``drumroll.estimate`` is imported on first use: it pulls in emcee, dynesty and ArviZ,
+    # which commands such as ``drumroll predict`` do not need.
+    if name == "estimate":
+        from drumroll.pipeline import estimate
+
+        return estimate
+    raise AttributeError(f"module 'drumroll' has no attribute {name!r}")

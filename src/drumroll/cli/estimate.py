@@ -10,7 +10,7 @@ from pathlib import Path
 from drumroll.cli.progress import Progress
 from drumroll.config import load_config
 from drumroll.errors import DrumrollError
-from drumroll.estimate import ONSET_FILE_SUFFIXES, Result, estimate
+from drumroll.pipeline import ONSET_FILE_SUFFIXES, Result, estimate
 from drumroll.reporting.numbers import format_value_error
 from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
 

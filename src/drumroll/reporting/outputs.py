@@ -116,7 +116,7 @@ def _json_safe(value: Any) -> Any:
 
 def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bool = False,
                   truths: dict[str, float] | None = None) -> dict[str, Path]:
-    """Write every output of ``result`` (a :class:`drumroll.estimate.Result`) into ``out_dir``.
+    """Write every output of ``result`` (a :class:`drumroll.pipeline.Result`) into ``out_dir``.
 
     Returns
     -------
