@@ -263,15 +263,18 @@ def _search(t_last: float, dt: float, s_log: float, ex: Excerpt, p: FollowParams
     f = a + int(np.argmax(z[a:b]))
     if z[f] < x_star:
         return None
+    # Locate as the first pass does: the short-window detection function's peak on the
+    # plateau, then the change point from 2 ms before the plateau to 2 ms after that peak.
     first, last = plateau(z, f, post)
-    guess = (ex.f0 + last) * ex.hop
-    lo_s = round(lo_t * ex.sr)
-    hi_s = round(hi_t * ex.sr)
-    back = max(2, min(guess - lo_s, (last - first + 2) * ex.hop))
-    ahead = max(2, min(hi_s - guess, round(0.001 * ex.sr)))
-    fit = max(4 * 16, min(round(0.006 * ex.sr), round(0.5 * dt * ex.sr)))
-    r = refine_window(ex.x, ex.start, guess, ex.sr, ex.ba, ex.settle, pre=back + fit,
-                      post=max(2, round(0.002 * ex.sr)), search=back, search_after=ahead)
+    post_loc = min(ex.odf.frames(0.001, ex.sr), post)
+    g = max(first - post_loc, 0)
+    at = g + int(np.argmax(ex.z(pre, post_loc)[g: last + 1]))
+    margin = round(0.002 * ex.sr)
+    back = margin + (at - first) * ex.hop
+    # The refinement's reference starts after the previous bounce's click where it can.
+    fit = max(64, min(round(0.008 * ex.sr) - margin, round(0.5 * dt * ex.sr)))
+    r = refine_window(ex.x, ex.start, (ex.f0 + at) * ex.hop, ex.sr, ex.ba, ex.settle,
+                      pre=back + fit, post=margin, search=back, search_after=margin)
     if r.snr_db < p.min_snr_db:  # there is a sound, but not one that can be timed
         return None
     return r.sample / ex.sr, r

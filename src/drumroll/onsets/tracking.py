@@ -56,11 +56,11 @@ class TrackParams:
     beam
         Hypotheses kept per onset (the best paths ending there, whatever came before).
     louder_between_db
-        How much louder than both of two consecutive bounces a sound between them may
-        measure: only the first one's echoes, ring and double hits come between them, all
-        quieter than it, so this is the scatter of the amplitude measurement (a peak within
-        a few ms of the onset, which a ringing drum can inflate). A path may not skip over a
-        louder sound, which keeps it from hopping between the tails of successive rolls.
+        Scatter allowed in the amplitude measurement (a peak within a few ms of the onset,
+        which a ringing drum can inflate) where the physics says "not louder": a bounce is
+        slower than the one before it, and only that one's echoes, ring and double hits come
+        between them, all quieter than it. So a path may neither get louder from bounce to
+        bounce nor skip over a louder sound, which keeps it from hopping between rolls.
     min_onsets
         Fewest onsets that make a roll: three intervals give two ratios, one to predict and one
         to test.
@@ -192,6 +192,9 @@ class _Beam:
         # Between two consecutive bounces come only the last one's echoes, ring and double
         # hits, all quieter than it: a path that skips over a louder sound is not a roll.
         ok &= self._loudest_between(j, k) <= self.louder * np.maximum(self.amp[j], self.amp[k])
+        # Each impact is slower than the one before it, so it is not louder (within the
+        # measurement's scatter).
+        ok &= self.amp[k] <= self.louder * self.amp[j]
         seed = np.isnan(rho)
         ok &= ~seed | (new <= last * math.exp(3.0 * p.ratio_jitter))
         if not ok.any():
@@ -237,8 +240,9 @@ class _Beam:
         b = np.searchsorted(t[s], t[k] - p.min_interval_s, side="right")
         i = s[a:b]
         if i.size:
-            i = i[self._loudest_between(i, k)
-                  <= self.louder * np.maximum(self.amp[i], self.amp[k])]
+            i = i[(self._loudest_between(i, k)
+                   <= self.louder * np.maximum(self.amp[i], self.amp[k]))
+                  & (self.amp[k] <= self.louder * self.amp[i])]
         if i.size == 0:
             return None
         return (self.w[i] + self.w[k], np.full(i.size, np.nan), t[k] - t[i], i,
