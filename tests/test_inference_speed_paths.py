@@ -137,3 +137,108 @@ def test_lean_impacts_match_bounces_on_valid_points():
                                    rtol=1e-13, atol=1e-15)
     for row in np.flatnonzero(~valid)[:50]:
         assert lp.space.impacts_one(x[row], 25) is None
+
+
+# --- sampler coordinates ---------------------------------------------------------------------
+
+from drumroll.inference.sampling import SamplerSettings, SamplerTarget, run_emcee  # noqa: E402
+from drumroll.inference.space import SamplerCoordinates  # noqa: E402
+
+COORDINATE_CASES = [(model, variant) for model in ("pendulum", "small-angle", "powerlaw")
+                    for variant in ("table1", "release", "thin-rod")]
+
+
+@pytest.mark.parametrize(("model", "variant"), COORDINATE_CASES)
+def test_sampler_coordinates_round_trip_and_jacobian(model, variant):
+    """z → x inverts x → z on valid points, and log|det| matches a finite-difference Jacobian."""
+    lp = LogPosterior.build(_config(variant), model, _data(False))
+    coords = SamplerCoordinates(lp.space)
+    x = lp.space.sample_prior(np.random.default_rng(7), 400)
+    x = x[np.isfinite(lp(x))][:60]
+    assert len(x) >= 20
+    z = coords.to_sampler(x)
+    back, log_det = coords.to_parameters(z)
+    np.testing.assert_allclose(back, x, rtol=1e-11, atol=0)
+    for row, zr in enumerate(z[:20]):
+        step = 1e-6 * np.maximum(np.abs(zr), 1e-3)
+        jac = np.empty((zr.size, zr.size))
+        for j in range(zr.size):
+            hi, lo = zr.copy(), zr.copy()
+            hi[j] += step[j]
+            lo[j] -= step[j]
+            jac[:, j] = (coords.to_parameters(hi)[0][0] - coords.to_parameters(lo)[0][0]) \
+                / (2 * step[j])
+        np.testing.assert_allclose(log_det[row], np.log(abs(np.linalg.det(jac))), atol=1e-6)
+
+
+@pytest.mark.parametrize("model", ["pendulum", "small-angle"])
+def test_sampler_coordinates_carry_the_height_prior_exactly(model):
+    """∫ p(h(q)) |dh/dq| dq over the valid q equals the prior mass of the reachable heights."""
+    lp = LogPosterior.build(_config("release"), model, _data(False))
+    space, coords = lp.space, SamplerCoordinates(lp.space)
+    ih = space.names.index("height")
+    x0 = space.sample_prior(np.random.default_rng(11), 50)
+    x0 = x0[np.isfinite(lp(x0))][0]
+    heights = np.linspace(1e-7, 0.5, 200_001)
+    xs = np.repeat(x0[None], heights.size, axis=0)
+    xs[:, ih] = heights
+    valid = space.impacts(xs, 0)[1]  # the physics' own validity (reach, contact angle)
+    density_h = np.exp(space.priors["height"].logpdf(heights)) * valid
+    mass_h = np.trapezoid(density_h, heights)
+    q = coords.to_sampler(xs[valid])[:, ih]
+    qs = np.linspace(q.min(), q.max(), 200_001)
+    zs = np.repeat(coords.to_sampler(x0[None]), qs.size, axis=0)
+    zs[:, ih] = qs
+    xq, log_det = coords.to_parameters(zs)
+    log_det -= zs[:, space.names.index("jitter")]  # the jitter's own term, constant here
+    density_q = np.where(np.isfinite(xq[:, ih]),
+                         np.exp(space.priors["height"].logpdf(np.nan_to_num(xq[:, ih]))
+                                + log_det), 0.0)
+    mass_q = np.trapezoid(density_q, qs)
+    assert mass_h > 0.01
+    np.testing.assert_allclose(mass_q, mass_h, rtol=2e-4)
+
+
+def test_sampler_target_is_posterior_plus_log_det():
+    lp = LogPosterior.build(_config("table1"), "pendulum", _data(False))
+    coords = SamplerCoordinates(lp.space)
+    x = lp.space.sample_prior(np.random.default_rng(2), 200)
+    z = coords.to_sampler(x)
+    target = SamplerTarget(lp, coords)(z)
+    x_back, log_det = coords.to_parameters(z)
+    want = lp(x_back) + log_det
+    finite = np.isfinite(lp(x))
+    np.testing.assert_allclose(target[finite], want[finite], rtol=1e-12)
+    assert np.all(target[~finite] == -np.inf)
+
+
+def test_run_emcee_reports_parameters_not_sampler_coordinates():
+    """Samples are parameters and log_prob is their log posterior (the powerlaw: < 2 s)."""
+    lp = LogPosterior.build(_config("table1"), "powerlaw", _data(False))
+    chain = run_emcee(lp, SamplerSettings(walkers=16, seed=1))
+    assert chain.converged
+    flat = chain.samples.reshape(-1, lp.space.ndim)
+    np.testing.assert_allclose(chain.log_prob.ravel(), lp(flat), rtol=1e-10)
+    jitter = flat[:, lp.space.names.index("jitter")]
+    assert 1e-4 < np.median(jitter) < 1e-2  # seconds (the misfit of a power law), not a log
+
+
+@pytest.mark.slow
+def test_sampler_coordinates_leave_the_posterior_unchanged():
+    """Plain DE in x and DE in z give the same posterior moments (pendulum, within MC error)."""
+    import emcee
+
+    lp = LogPosterior.build(_config("table1"), "pendulum", _data(False))
+    chain = run_emcee(lp, SamplerSettings(seed=3))
+    z_samples = chain.samples.reshape(-1, lp.space.ndim)
+    sampler = emcee.EnsembleSampler(32, lp.space.ndim, lp, vectorize=True,
+                                    moves=[(emcee.moves.DEMove(), 1.0)])
+    sampler._random.seed(4)
+    start = z_samples[np.random.default_rng(4).choice(len(z_samples), 32, replace=False)]
+    sampler.run_mcmc(start, 12_000)
+    plain = sampler.get_chain(discard=1000).reshape(-1, lp.space.ndim)
+    tau = sampler.get_autocorr_time(tol=0).max()
+    n_eff = min(len(plain) / tau, len(z_samples) / np.max(chain.tau))
+    sd = plain.std(axis=0)
+    assert np.all(np.abs(z_samples.mean(axis=0) - plain.mean(axis=0)) < 5 * sd / np.sqrt(n_eff))
+    assert np.all(np.abs(z_samples.std(axis=0) / sd - 1) < 5 / np.sqrt(n_eff))

@@ -310,3 +310,102 @@ class ParameterSpace:
         sin2_chi = np.minimum(excess / (m * c_c), 1.0)
         return ellipkinc(np.arcsin(np.sqrt(sin2_chi)), m) * (2.0 / math.sqrt(gamma))
 
+
+@dataclass(frozen=True)
+class SamplerCoordinates:
+    """Better-conditioned coordinates z for MCMC, an exact bijection of the parameters x.
+
+    The moves emcee uses are affine invariant, so linear correlations cost nothing; what slows
+    them is curvature. Two maps remove the worst of it, each leaving the other columns alone:
+
+    * ``height`` → q = ω_C/γ of the model's own linearised kinematics,
+      q² = (ω0² + 2γ(θ_C − θ0)) / γ², with θ_C = asin(h / (L − d)) (pendulum) or
+      h / (L − d) (small-angle). The data pin down t_B ≈ 2q, which in (d, h) is a curved ridge
+      (physics.md) and in (d, q) nearly a straight line. Inverse:
+      θ_C = θ0 + (γ²q² − ω0²)/(2γ), h = (L − d) sin θ_C (or (L − d) θ_C), with
+      ∂h/∂q = (L − d) cos θ_C γ q (or (L − d) γ q).
+    * the scale parameters ``jitter`` and ``t_b`` → their logarithms (∂x/∂z = x).
+
+    The density of z is p(x(z)) |det ∂x/∂z|; since only one column at a time depends on the
+    others, the Jacobian is triangular and its log determinant is the sum of the log
+    derivatives above. z points outside the image of the valid parameter set map to NaN
+    (log posterior −inf), so the map is a bijection between the valid sets.
+    """
+
+    space: ParameterSpace
+
+    def __post_init__(self) -> None:
+        names = self.space.names
+        logs = tuple(names.index(n) for n in ("jitter", "t_b") if n in names)
+        height = (names.index("height") if "height" in names
+                  and self.space.model in ("pendulum", "small-angle") else None)
+        object.__setattr__(self, "_logs", logs)
+        object.__setattr__(self, "_height", height)
+
+    @property
+    def is_identity(self) -> bool:
+        """Whether z = x."""
+        return not self._logs and self._height is None
+
+    def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """γ, L − d, ω0 and θ0 per row (only the columns other than h are used)."""
+        space = self.space
+        v = space._value
+        d, l1 = v(x, "pivot"), v(x, "stick_length")
+        if space.config.stick.shape == "thin-rod":
+            total_length, centre_of_mass = l1, 0.5 * l1
+            k_o_squared = l1**2 / 3.0 + d**2 - l1 * d
+        else:
+            l2, r = v(x, "stick_tip"), v(x, "stick_radius")
+            weight = 3.0 * l1 + l2
+            cylinder = 3.0 * l1 * (0.25 * (r**2 + l1**2 / 3.0) + (0.5 * l1 - d) ** 2)
+            cone = l2 * (3.0 / 80.0 * (4.0 * r**2 + l2**2) + (l1 - d + 0.25 * l2) ** 2)
+            total_length = l1 + l2
+            centre_of_mass = (6.0 * l1**2 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
+            k_o_squared = (cylinder + cone) / weight
+        gamma = space.config.gravity * (centre_of_mass - d) / k_o_squared
+        arm = total_length - d
+        ones = np.ones(x.shape[0])
+        return gamma * ones, arm * ones, v(x, "release_speed") / arm * ones, \
+            v(x, "release_angle") * ones
+
+    def to_sampler(self, x: NDArray) -> NDArray:
+        """z of each row of the parameters ``x`` (NaN where x is invalid)."""
+        x = np.atleast_2d(np.asarray(x, float))
+        z = x.copy()
+        with np.errstate(all="ignore"):
+            for i in self._logs:
+                z[:, i] = np.log(x[:, i])
+            if self._height is not None:
+                gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
+                ratio = x[:, self._height] / arm
+                theta_c = np.arcsin(ratio) if self.space.model == "pendulum" else ratio
+                z[:, self._height] = np.sqrt(omega0**2 + 2.0 * gamma * (theta_c - theta0)) / gamma
+        return z
+
+    def to_parameters(self, z: NDArray) -> tuple[NDArray, NDArray]:
+        """The parameters x of each row of ``z``, and log |det ∂x/∂z|."""
+        z = np.atleast_2d(np.asarray(z, float))
+        x = z.copy()
+        log_det = np.zeros(z.shape[0])
+        with np.errstate(all="ignore"):
+            for i in self._logs:
+                x[:, i] = np.exp(z[:, i])
+                log_det += z[:, i]
+            if self._height is not None:
+                gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
+                q = z[:, self._height]
+                theta_c = theta0 + (gamma * gamma * q * q - omega0 * omega0) / (2.0 * gamma)
+                ok = (q > 0.0) & (gamma * q > omega0) & (theta_c > 0.0) & (gamma > 0.0)
+                if self.space.model == "pendulum":
+                    ok &= theta_c < 0.5 * np.pi
+                    x[:, self._height] = arm * np.sin(theta_c)
+                    log_det += np.log(arm * np.cos(theta_c) * gamma * q)
+                else:
+                    x[:, self._height] = arm * theta_c
+                    log_det += np.log(arm * gamma * q)
+                if not ok.all():
+                    x[~ok, self._height] = np.nan
+                    log_det[~ok] = 0.0
+        return x, log_det
+
