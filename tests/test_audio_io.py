@@ -11,7 +11,7 @@ import soundfile as sf
 from drumroll.audio import iter_blocks, probe, read_audio
 from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets import detect
-from test_onsets import score, synthetic_roll
+from test_onsets import score, simulated_roll
 
 CASES = [  # (format, subtype, extension, sample rate, channels, lossy)
     ("WAV", "PCM_16", "wav", 44100, 1, False),
@@ -30,7 +30,8 @@ if "MP3" in sf.available_formats():
 
 @pytest.mark.parametrize("fmt, subtype, ext, sr, channels, lossy", CASES)
 def test_every_container_gives_the_onsets(tmp_path, fmt, subtype, ext, sr, channels, lossy):
-    x, sr, truth, audible = synthetic_roll(sr, n=14, seed=11, snr_db=40)
+    r = simulated_roll(11, sr=sr, snr_db=40)
+    x, truth, audible = r.samples, r.impact_times_s, r.local_snr_db >= 0
     data = np.column_stack([x, 0.9 * x]) if channels == 2 else x
     path = tmp_path / f"roll.{ext}"
     sf.write(path, data, sr, format=fmt, subtype=subtype)
@@ -97,7 +98,8 @@ def test_bad_inputs_raise_one_line_naming_the_file(tmp_path, kind):
 
 
 def test_clipping_warns_and_carries_on(tmp_path):
-    x, sr, _, _ = synthetic_roll(n=8, seed=4)
+    r = simulated_roll(4)
+    x, sr = r.samples, r.sample_rate
     path = tmp_path / "clip.wav"
     sf.write(path, np.clip(4 * x, -1, 1), sr, subtype="PCM_16")
     with warnings.catch_warnings(record=True) as caught:

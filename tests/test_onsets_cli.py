@@ -9,15 +9,15 @@ import soundfile as sf
 from drumroll.cli.main import main
 from drumroll.onsets import COLUMNS, read_onsets
 from test_audio_io import BAD, _write_bad
-from test_onsets import synthetic_roll
+from test_onsets import simulated_roll
 
 
 @pytest.fixture(scope="module")
 def roll_flac(tmp_path_factory):
-    x, sr, truth, _ = synthetic_roll(n=14, seed=21)
+    r = simulated_roll(21, snr_db=30, spurious=True)
     path = tmp_path_factory.mktemp("cli") / "roll.flac"
-    sf.write(path, x, sr, subtype="PCM_24")
-    return path, truth
+    sf.write(path, r.samples, r.sample_rate, subtype="PCM_24")
+    return path, r.impact_times_s
 
 
 def test_stdout_csv(roll_flac, capsys):

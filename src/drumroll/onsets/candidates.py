@@ -34,7 +34,7 @@ class Candidates:
 
     time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     z: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    rise_db: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    level: np.ndarray = field(default_factory=lambda: np.zeros(0))
     amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))
     snr_db: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sigma_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -47,7 +47,7 @@ class Candidates:
         return Candidates(*(getattr(self, n)[index] for n in _FIELDS))
 
 
-_FIELDS = ("time_s", "z", "rise_db", "amplitude", "snr_db", "sigma_s")
+_FIELDS = ("time_s", "z", "level", "amplitude", "snr_db", "sigma_s")
 
 
 def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
@@ -227,9 +227,9 @@ class CandidateStream:
                 rows.append((*self._refine((lo + at) * hop, (at - first) * hop), z[f]))
         if rows:
             cols = list(zip(*rows, strict=True))
-            # Candidates columns: time, z, rise (unused: z carries it), amplitude, snr, sigma.
+            # Candidates columns: time, z, level, amplitude, snr, sigma.
             self._parts.append(tuple(np.asarray(cols[i], dtype=float)
-                                     for i in (0, 4, 4, 1, 2, 3)))
+                                     for i in (0, 5, 4, 1, 2, 3)))
         self.done = stop
         # Keep only the context the next decision needs.
         keep_from = max(self.done - self.context, 0) * hop
@@ -239,25 +239,28 @@ class CandidateStream:
             self.energy = [e[drop:] for e in self.energy]
             self.buf0 = keep_from
 
-    def _refine(self, guess: int, lead: int) -> tuple[float, float, float, float]:
+    def _refine(self, guess: int, lead: int) -> tuple[float, float, float, float, float]:
         """Refine an onset near absolute sample ``guess``, whose detection plateau starts
-        ``lead`` samples earlier: time, amplitude, SNR, sigma."""
+        ``lead`` samples earlier: time, amplitude, SNR, sigma and level (the peak over the
+        detection function's window after the onset)."""
         back = self.ref_search + max(lead, 0)
         r = refine_window(self.buf, self.buf0, guess, self.sr, self.wide_ba, self.settle,
                           pre=self.ref_pre + back - self.ref_search, post=self.ref_post,
                           search=back,
-                          search_after=self.ref_after)
-        return r.sample / self.sr, r.amplitude, r.snr_db, r.sigma_s
+                          search_after=self.ref_after, level=self.post * self.hop)
+        return r.sample / self.sr, r.amplitude, r.snr_db, r.sigma_s, r.level
 
 
 def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
                   ba: tuple[np.ndarray, np.ndarray], settle: int, *, pre: int, post: int,
-                  search: int, search_after: int | None = None) -> Refined:
+                  search: int, search_after: int | None = None, level: int = 0) -> Refined:
     """Refine an onset near absolute sample ``guess`` of raw samples ``buf`` (``buf[0]`` is
     absolute sample ``buf0``): the wide high-pass ``ba`` is run from rest ``settle`` samples
-    before the refinement window. Returns the refined onset with an absolute ``sample``."""
+    before the refinement window. Returns the refined onset with an absolute ``sample`` and,
+    if ``level`` > 0, the peak of the high-passed sound over ``level`` samples from it."""
     a = max(guess - pre - settle, 0)
-    b = guess + post
+    after = search if search_after is None else search_after
+    b = guess + max(post, after + level)
     x = buf[max(a - buf0, 0): max(b - buf0, 0)]
     lead = max(buf0 - a, 0)
     if lead:  # before the buffer (only at the file's start): silence
@@ -267,7 +270,8 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
     y = signal.lfilter(ba[0], ba[1], x)
     r = refine_onset(y, guess - a, sample_rate, pre=pre, post=post, search=search,
                      search_after=search_after)
-    return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s)
+    peak = float(np.abs(y[r.sample: r.sample + level]).max()) if level > 0 else float("nan")
+    return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s, peak)
 
 
 def _merge_close(c: Candidates, gap_s: float) -> Candidates:

@@ -48,6 +48,9 @@ class Refined:
         Timing uncertainty (one standard deviation), seconds.
     rise_s
         Time from the onset to the click first reaching half its peak, seconds.
+    level
+        Peak absolute value of the high-passed sound over a longer window after the onset
+        (the loudness the tracker compares; NaN when not measured).
     """
 
     sample: int
@@ -55,6 +58,7 @@ class Refined:
     snr_db: float
     sigma_s: float
     rise_s: float
+    level: float = float("nan")
 
 
 #: Splits whose tempered AIC is within this of the best are statistically equivalent

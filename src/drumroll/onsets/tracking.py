@@ -56,11 +56,12 @@ class TrackParams:
     beam
         Hypotheses kept per onset (the best paths ending there, whatever came before).
     louder_between_db
-        Scatter allowed in the amplitude measurement (a peak within a few ms of the onset,
-        which a ringing drum can inflate) where the physics says "not louder": a bounce is
-        slower than the one before it, and only that one's echoes, ring and double hits come
-        between them, all quieter than it. So a path may neither get louder from bounce to
-        bounce nor skip over a louder sound, which keeps it from hopping between rolls.
+        Scatter allowed in the level measurement (the peak of the high-passed sound over the
+        detection function's window after the onset) where the physics says "not louder":
+        a bounce is slower than the one before it, and only that one's echoes, ring and
+        double hits come between them, all quieter than it. So a path may neither get
+        louder from bounce to bounce nor skip over a louder sound, which keeps it from
+        hopping between rolls.
     min_onsets
         Fewest onsets that make a roll: three intervals give two ratios, one to predict and one
         to test.
@@ -113,7 +114,7 @@ def track(c: Candidates, params: TrackParams | None = None) -> Track:
     best_path: list[int] = []
     best_score = -math.inf
     for lo, hi in stretches(c.time_s, p.max_interval_s):
-        path, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], c.amplitude[lo:hi],
+        path, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], c.level[lo:hi],
                             p).run()
         if path and score > best_score:
             best_path, best_score = [lo + i for i in path], score
