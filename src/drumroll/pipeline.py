@@ -13,7 +13,7 @@ import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -126,14 +126,17 @@ def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings
     return chain, evidence, seconds
 
 
-def thin_chain(chain: Chain, max_draws: int) -> Chain:
-    """Thin ``chain`` further (keeping the latest draws) so it holds at most ``max_draws``."""
-    walkers, draws = chain.samples.shape[:2]
-    step = -(-walkers * draws // max_draws)  # ceiling division
+def thin_draws(idata: az.InferenceData, max_draws: int) -> az.InferenceData:
+    """Keep every k-th draw (latest last) so that at most ``max_draws`` remain per model."""
+    chains, draws = idata.posterior.sizes["chain"], idata.posterior.sizes["draw"]
+    step = -(-chains * draws // max_draws)  # ceiling division
     if step <= 1:
-        return chain
-    return replace(chain, samples=chain.samples[:, ::-1][:, ::step][:, ::-1],
-                   log_prob=chain.log_prob[:, ::-1][:, ::step][:, ::-1], thin=chain.thin * step)
+        return idata
+    keep = slice((draws - 1) % step, None, step)
+    thinned = idata.isel(draw=keep, groups=["posterior", "posterior_predictive",
+                                             "log_likelihood", "sample_stats"])
+    thinned.sample_stats.attrs["thin"] = int(idata.sample_stats.attrs.get("thin", 1)) * step
+    return thinned
 
 
 def model_seed(base: int, index: int) -> int:
@@ -198,7 +201,6 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     started = time.perf_counter()
     fits: dict[str, ModelFit] = {}
     for model, seed, (chain, evidence, fit_seconds) in zip(models, seeds, outputs, strict=True):
-        chain = thin_chain(chain, MAX_DRAWS)
         log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
         idata = build_inference_data(log_posterior, chain, np.random.default_rng(seed))
         fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, fit_seconds)
@@ -207,17 +209,22 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                                                     config.model, evidences)
     seconds["comparison"] = time.perf_counter() - started
     main = fits[config.model]
+    # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
+    parameters = parameter_summary(main.idata, settings.hdi_prob)
+    model_diagnostics = {m: diagnostics(f.idata, f.chain, loos[m], settings)
+                         for m, f in fits.items()}
+    for fit in fits.values():
+        fit.idata = thin_draws(fit.idata, MAX_DRAWS)
     summary = {
         "model": config.model,
         "n_onsets": len(onsets),
-        "parameters": parameter_summary(main.idata, settings.hdi_prob),
+        "parameters": parameters,
         "fixed": {EXPORT[name][0]: prior.value * EXPORT[name][1]
                   for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
         "comparison": rows,
         "preferred": preferred,
         "verdict": verdict,
-        "diagnostics": {m: diagnostics(f.idata, f.chain, loos[m], settings)
-                        for m, f in fits.items()},
+        "diagnostics": model_diagnostics,
         "evidence": {m: {"log_z": e.log_z, "log_z_err": e.log_z_err, "n_calls": e.n_calls}
                      for m, e in evidences.items()},
         "onsets": [{"time_s": float(t), "sigma_s": float(s)}
