@@ -144,13 +144,18 @@ def throughput() -> None:
 
 
 _MEM_CHILD = """
-import resource, sys, tracemalloc
+import sys, tracemalloc
 from drumroll.onsets import detect
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+def hwm():  # this process's own peak resident set (ru_maxrss can inherit the parent's)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1])
+    return -1
+base = hwm()
 tracemalloc.start()
 detect(sys.argv[1])
 peak = tracemalloc.get_traced_memory()[1]
-print(peak, base, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+print(peak, base, hwm())
 """
 
 

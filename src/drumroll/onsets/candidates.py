@@ -72,10 +72,11 @@ def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
         Energy floor per frame.
     """
     combined = np.zeros(energies[0].size)
+    stride = max(1, post // 2)  # the ratio is a moving window: neighbours are alike
     for energy in energies:
         odf = rise_ratio_db(energy, pre, post, floor)
-        combined += np.maximum(local_robust_z(odf, segment, valid=inner), 0.0)
-    return local_robust_z(combined, segment, valid=inner)
+        combined += np.maximum(local_robust_z(odf, segment, valid=inner, stride=stride), 0.0)
+    return local_robust_z(combined, segment, valid=inner, stride=stride)
 
 
 def plateau(z: np.ndarray, f: int, reach: int, within: float = 1.0) -> tuple[int, int]:
@@ -146,7 +147,7 @@ class CandidateStream:
         # Candidates at least 1 ms apart: closer peaks are one click's fine structure.
         self.half_width = params.frames(0.001, self.sr)
         self.context = max(params.frames(stats_s, self.sr), 4 * (self.pre + self.post))
-        self.chunk = 4 * self.context
+        self.chunk = 8 * self.context
         self.segment = params.frames(0.25, self.sr)
         self.ref_pre = round(refine_pre_s * self.sr)
         self.ref_post = max(2, round(refine_post_s * self.sr))

@@ -5,15 +5,21 @@ ratio that, if it changes at all, changes slowly (the exact pendulum, air drag, 
 dependent restitution). Echoes, the second burst of a double hit, ring-down wiggles, clicks
 before the roll and noises after it all break that pattern.
 
-The tracker is a dynamic programme over pairs of consecutive onsets ``(i, j)``. A path's score
-is a log-likelihood ratio, "bounce sequence" against "unrelated sounds":
+The tracker is a beam search over paths of onsets, run in time order over stretches of
+candidates separated by gaps longer than any flight (independent, so an hour of audio is
+tracked in pieces). A path's score is a log-likelihood ratio, "bounce sequence" against
+"unrelated sounds":
 
 * every onset contributes its acoustic evidence, growing with its significance ``z`` and
   saturating (a loud click is certainly a sound, not certainly a bounce);
 * every interval after the second is compared with the prediction from the path's smoothed
   interval ratio, with a Gaussian tolerance that widens with both onsets' timing
   uncertainties and with the interval ratio's natural jitter, against a background that is
-  uniform in log interval; one missed (inaudible or masked) bounce may be bridged at a cost.
+  uniform in log interval; one missed (inaudible or masked) bounce may be bridged at a cost;
+* a bounce is never louder than the one before it, and nothing between two bounces is
+  louder than them (within the level measurement's scatter).
+
+Only the ``beam`` best paths ending at each onset are kept, so the work per onset is bounded.
 
 The best-scoring path is the roll. It starts at the first impact that fits and stops where
 further candidates no longer add evidence, which is how the roll is followed into the noise
