@@ -17,7 +17,7 @@ from drumroll import __version__
 from drumroll.errors import DrumrollError
 
 #: Subcommand modules, in the order ``drumroll --help`` lists them.
-SUBCOMMANDS = ("predict", "onsets", "simulate", "estimate")
+SUBCOMMANDS = ("predict", "onsets", "simulate", "estimate", "table")
 
 
 def build_parser() -> argparse.ArgumentParser:

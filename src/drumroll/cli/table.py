@@ -1,0 +1,130 @@
+"""``drumroll table RUNS.toml``: Tables 1–2 and Figure 5 of the paper from a folder of runs."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+from collections.abc import Iterator
+from concurrent.futures import Executor
+from pathlib import Path
+
+from drumroll.cli.progress import Progress
+from drumroll.errors import DrumrollError
+from drumroll.fileio import check_writable, write_text
+
+#: Output format by file suffix.
+SUFFIX_FORMATS = {".md": "markdown", ".markdown": "markdown", ".csv": "csv", ".tex": "latex",
+                  ".json": "json"}
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``table`` subcommand."""
+    parser = subparsers.add_parser(
+        "table", help="a paper-style table (and Figure 5) from several recordings",
+        description="Estimate every run of a RUNS.toml file (in parallel, cached by content) "
+        "and print the paper's Tables 1-2: the varied quantity, computed t_B (prior "
+        "propagation), fitted t_B and alpha, the preferred model. `share = [\"alpha\"]` fits "
+        "the listed parameters jointly across the runs.")
+    parser.add_argument("runs", metavar="RUNS.toml", help="runs file (see drumroll.table.runs)")
+    parser.add_argument("-o", "--output", type=Path, metavar="FILE",
+                        help="write the table here (default: print it)")
+    parser.add_argument("--format", choices=("markdown", "csv", "latex", "json"),
+                        help="table format (default: from the -o suffix, else markdown)")
+    parser.add_argument("--plot", type=Path, metavar="PNG", help="write Figure 5 here")
+    parser.add_argument("--workers", type=_positive_int, metavar="N",
+                        help="runs estimated side by side (default: the cores)")
+    parser.add_argument("--dask", metavar="ADDRESS",
+                        help="run on a Dask cluster, e.g. tcp://scheduler:8786 (needs the "
+                        "'dask' extra)")
+    parser.add_argument("--cache-dir", type=Path, metavar="DIR",
+                        help="cache folder (default: .drumroll-cache/ beside RUNS.toml)")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="neither read nor write cached runs")
+    parser.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    parser.set_defaults(func=run)
+
+
+@contextlib.contextmanager
+def dask_executor(address: str) -> Iterator[Executor]:
+    """A :class:`concurrent.futures.Executor` on the Dask cluster at ``address``."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise DrumrollError("--dask needs Dask: pip install 'drumroll[dask]' (or "
+                            "'dask[distributed]')") from None
+    try:
+        client = Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise DrumrollError(f"--dask {address}: cannot connect ({exc})") from None
+    try:
+        yield client.get_executor()
+    finally:
+        client.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``table``: validate everything, then estimate, then write."""
+    from drumroll.table import load_runs, render, run_table
+
+    runs = load_runs(args.runs)
+    fmt = args.format or (SUFFIX_FORMATS.get(args.output.suffix.lower(), "markdown")
+                          if args.output else "markdown")
+    for path in (args.output, args.plot):
+        if path is not None:
+            check_writable(path, overwrite=args.force)
+    if args.plot is not None and args.plot.suffix.lower() != ".png":
+        raise DrumrollError(f"{args.plot}: the figure is written as PNG; name it *.png")
+    progress = Progress(quiet=args.quiet)
+    options = {"workers": args.workers, "cache_dir": args.cache_dir,
+               "use_cache": not args.no_cache, "progress": progress.say}
+    if args.dask:
+        with dask_executor(args.dask) as executor:
+            result = run_table(runs, executor=executor, **options)
+    else:
+        result = run_table(runs, **options)
+    if runs.share:
+        from drumroll.table.joint import joint_table
+
+        with progress.stage(f"joint fit of {', '.join(runs.share)} across {len(runs.runs)} "
+                            "runs"):
+            result.joint = joint_table(runs, result, cache_dir=args.cache_dir,
+                                       use_cache=not args.no_cache)
+    text = render(result, fmt)
+    if args.output is not None:
+        write_text(args.output, text, overwrite=args.force)
+        progress.say(f"table written to {args.output}")
+    else:
+        sys.stdout.write(text)
+    if args.plot is not None:
+        from drumroll.table.plot import plot_table
+
+        plot_table(result, args.plot, overwrite=args.force)
+        progress.say(f"figure written to {args.plot}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m drumroll.cli.table RUNS.toml …``: the same command without loading the
+    other subcommands (``drumroll`` imports them all, ArviZ included, ~1–2 s of start-up)."""
+    from drumroll.cli.main import run_cli
+
+    parser = argparse.ArgumentParser(prog="drumroll table")
+    subparsers = parser.add_subparsers(dest="command", required=True)
+    register(subparsers)
+    return run_cli(parser, ["table", *(sys.argv[1:] if argv is None else argv)])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

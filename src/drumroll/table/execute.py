@@ -1,0 +1,248 @@
+"""Running the runs of a table side by side, with results cached by content.
+
+Each run is one :func:`drumroll.pipeline.estimate` (main model and its comparison) plus the
+prior propagation of :func:`~drumroll.inference.prior_predictive.propagate` (the paper's
+"computed t_B"). Runs go to a :class:`concurrent.futures.Executor` (processes, or a Dask
+cluster's executor); each finished run is written at once, atomically, to
+``<cache>/<key>.json``, where the key hashes the source file's bytes, the effective config and
+the drumroll version. An unchanged table is then read back without sampling, a new run is the
+only one computed, and an interrupted table resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from drumroll import __version__, fileio
+from drumroll.errors import DrumrollError
+from drumroll.table.runs import Run, RunsFile, validate_estimation
+
+#: Bumped whenever the cached row's layout changes (old entries are then recomputed).
+CACHE_SCHEMA = 1
+#: Monte Carlo draws of the computed t_B (the sd's relative precision is ~0.5 %).
+PREDICT_DRAWS = 20_000
+#: Seed of the computed t_B's draws.
+PREDICT_SEED = 0
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class TableResult:
+    """What ``drumroll table`` computed.
+
+    Attributes
+    ----------
+    runs
+        The parsed RUNS file.
+    rows
+        Per run (same order), the cached/computed row data (see :func:`compute_run`).
+    computed
+        Labels of the runs sampled in this call (the others came from the cache).
+    joint
+        The joint fit's summary when ``share`` is set (see :mod:`drumroll.table.joint`).
+    seconds
+        Wall time of the whole call.
+    """
+
+    runs: RunsFile
+    rows: list[dict[str, Any]]
+    computed: list[str] = field(default_factory=list)
+    joint: dict[str, Any] | None = None
+    seconds: float = 0.0
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's bytes (read in 1 MiB blocks)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def run_key(run: Run) -> str:
+    """The cache key of a run: its source's bytes, effective config and drumroll version."""
+    document = {"source_sha256": file_digest(run.source), "config": run.raw,
+                "version": __version__, "schema": CACHE_SCHEMA,
+                "predict": [PREDICT_DRAWS, PREDICT_SEED]}
+    text = json.dumps(document, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:40]
+
+
+def _value_error(entry: dict[str, Any] | None) -> dict[str, float | None]:
+    if entry is None:
+        return {"value": None, "err": None}
+    return {"value": entry["mean"], "err": entry["sd"]}
+
+
+def compute_run(source: str, raw: dict[str, Any]) -> dict[str, Any]:
+    """Estimate one run and propagate its priors; the JSON-ready row data.
+
+    Runs in a worker (a process or a Dask worker): it takes only picklable, plain inputs and
+    imports the heavy modules itself.
+
+    Returns
+    -------
+    dict
+        ``model``, ``n_onsets``, ``computed_t_b`` (model → value/err), ``fitted_t_b``,
+        ``alpha`` (value/err: posterior mean and sd of the main model), ``parameters`` (the
+        main model's summary), ``preferred``, ``verdict``, ``warnings``, ``flights`` (observed
+        flight times with errors and the main model's posterior median and 90 % band, for
+        Figure 5) and ``seconds``.
+    """
+    from drumroll.config import parse_config
+    from drumroll.inference.prior_predictive import propagate
+    from drumroll.physics import GEOMETRIC_MODELS
+    from drumroll.pipeline import estimate
+    from drumroll.reporting.bounce_series import observed_flights
+    from drumroll.reporting.plot_style import band, flat_draws
+
+    started = time.perf_counter()
+    config = parse_config(raw)
+    result = estimate(source, config)
+    computed: dict[str, dict[str, float]] = {}
+    if config.stick is not None:
+        for model in GEOMETRIC_MODELS:
+            summary = propagate(config, model, n_flights=1, n_draws=PREDICT_DRAWS,
+                                seed=PREDICT_SEED).summary()
+            computed[model] = _value_error(summary["t_b"])
+    main = result.idatas[config.model]
+    lo, median, hi = band(flat_draws(main, "posterior_predictive", "flight_time_model"))
+    observed, observed_err = observed_flights(main)
+    parameters = result.summary["parameters"]
+    warnings = [w for d in result.summary["diagnostics"].values() for w in d["warnings"]]
+    return {
+        "schema": CACHE_SCHEMA,
+        "version": __version__,
+        "model": config.model,
+        "n_onsets": result.summary["n_onsets"],
+        "computed_t_b": computed,
+        "fitted_t_b": _value_error(parameters.get("t_b")),
+        "alpha": _value_error(parameters.get("alpha")),
+        "parameters": parameters,
+        "preferred": result.preferred,
+        "verdict": result.summary["verdict"],
+        "warnings": warnings,
+        "onsets_s": [o["time_s"] for o in result.summary["onsets"]],
+        "flights": {"observed": observed.tolist(), "observed_err": observed_err.tolist(),
+                    "lo": lo.tolist(), "median": median.tolist(), "hi": hi.tolist()},
+        "seconds": time.perf_counter() - started,
+    }
+
+
+def _read_cached(path: Path) -> dict[str, Any] | None:
+    """A cached row, or None when absent, unreadable or of another schema."""
+    try:
+        row = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return row if isinstance(row, dict) and row.get("schema") == CACHE_SCHEMA else None
+
+
+def _write_cached(folder: Path, key: str, row: dict[str, Any]) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    fileio.write_text(folder / f"{key}.json", json.dumps(row, indent=1), overwrite=True)
+
+
+def default_workers() -> int:
+    """Processes to use by default: the machine's cores."""
+    return os.cpu_count() or 1
+
+
+def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor | None = None,
+              cache_dir: Path | None = None, use_cache: bool = True,
+              progress: Progress | None = None) -> TableResult:
+    """Every run's row, from the cache or computed in parallel.
+
+    Parameters
+    ----------
+    runs
+        The parsed RUNS file.
+    workers
+        Processes when no ``executor`` is given (default: the cores; 1 runs in this process).
+    executor
+        Any :class:`concurrent.futures.Executor` (e.g. a Dask client's ``get_executor()``);
+        the caller owns it.
+    cache_dir
+        Cache folder (default: ``.drumroll-cache/`` beside the RUNS file).
+    use_cache
+        Read and write the cache (False: compute everything, write nothing).
+    progress
+        Called with a line of news per finished run.
+
+    Raises
+    ------
+    DrumrollError
+        A run failed (one line naming it); the runs finished before stay cached.
+    """
+    say = progress or (lambda message: None)
+    started = time.perf_counter()
+    folder = cache_dir if cache_dir is not None else runs.cache_dir
+    keys = [run_key(run) for run in runs.runs]
+    rows: list[dict[str, Any] | None] = [None] * len(runs.runs)
+    if use_cache:
+        for i, key in enumerate(keys):
+            rows[i] = _read_cached(folder / f"{key}.json")
+    todo = [i for i, row in enumerate(rows) if row is None]
+    for i in todo:  # every config fully valid before anything is sampled
+        validate_estimation(runs.runs[i])
+    if len(todo) < len(rows):
+        say(f"{len(rows) - len(todo)} of {len(rows)} runs from the cache ({folder})")
+
+    def finish(i: int, row: dict[str, Any]) -> None:
+        rows[i] = row
+        if use_cache:
+            _write_cached(folder, keys[i], row)
+        done = sum(r is not None for r in rows)
+        say(f"run {runs.runs[i].label!r}: done in {row['seconds']:.1f} s ({done}/{len(rows)})")
+
+    if todo:
+        n = max(1, min(workers or default_workers(), len(todo)))
+        say(f"estimating {len(todo)} run{'s' if len(todo) > 1 else ''} "
+            + (f"on {type(executor).__name__}" if executor is not None else
+               f"in {n} process{'es' if n > 1 else ''}"))
+        if executor is None and n == 1:
+            for i in todo:
+                run = runs.runs[i]
+                finish(i, _guarded(run, lambda run=run: compute_run(str(run.source), run.raw)))
+        elif executor is not None:
+            _submit_all(executor, runs, todo, finish)
+        else:
+            with ProcessPoolExecutor(max_workers=n) as pool:
+                _submit_all(pool, runs, todo, finish)
+    return TableResult(runs=runs, rows=[r for r in rows if r is not None],
+                       computed=[runs.runs[i].label for i in todo],
+                       seconds=time.perf_counter() - started)
+
+
+def _guarded(run: Run, call: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """``call()``, with a user error prefixed by the run's label."""
+    try:
+        return call()
+    except DrumrollError as exc:
+        raise DrumrollError(f"run {run.label!r}: {exc}") from None
+
+
+def _submit_all(executor: Executor, runs: RunsFile, todo: list[int],
+                finish: Callable[[int, dict[str, Any]], None]) -> None:
+    """Submit the runs in ``todo``; hand each result to ``finish`` as it completes."""
+    futures: dict[Future, int] = {
+        executor.submit(compute_run, str(runs.runs[i].source), runs.runs[i].raw): i
+        for i in todo}
+    try:
+        for future in as_completed(futures):
+            i = futures[future]
+            finish(i, _guarded(runs.runs[i], future.result))
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise

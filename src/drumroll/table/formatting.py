@@ -1,0 +1,219 @@
+"""The table as Markdown, CSV, LaTeX (booktabs + siunitx) or JSON, rounded like the paper.
+
+Every ``value ± err`` is rounded by :func:`drumroll.reporting.numbers.format_value_error`: the
+error to one or two significant digits, the value to match (``0.22 ± 0.01``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from typing import Any
+
+from drumroll.reporting.numbers import format_value_error
+from drumroll.table.execute import TableResult
+from drumroll.table.runs import vary_spec, vary_value
+
+FORMATS = ("markdown", "csv", "latex", "json")
+#: Table columns after the label and the varied quantity: key → (plain header, LaTeX header).
+COLUMNS: dict[str, tuple[str, str]] = {
+    "computed_t_b": ("computed t_B (s)", r"computed $t_B$ (\si{s})"),
+    "computed_t_b_pendulum": ("computed t_B, exact pendulum (s)",
+                              r"computed $t_B$, exact (\si{s})"),
+    "fitted_t_b": ("fitted t_B (s)", r"fitted $t_B$ (\si{s})"),
+    "alpha": ("α", r"$\alpha$"),
+}
+_PLAIN_SYMBOLS = {r"\alpha": "α", r"\theta_0": "θ0", r"\sigma": "σ", "_": "", "$": ""}
+_SHARED_MARK = "*"
+
+
+def plain_symbol(key: str) -> str:
+    """A parameter's symbol without mathtext, e.g. ``d`` or ``l1``."""
+    text = vary_spec(key).symbol
+    for old, new in _PLAIN_SYMBOLS.items():
+        text = text.replace(old, new)
+    return text
+
+
+def vary_header(key: str, latex: bool = False) -> str:
+    """Header of the first column: ``d (mm)`` (or ``$d$ (\\si{mm})``)."""
+    spec = vary_spec(key)
+    symbol = spec.symbol if latex else plain_symbol(key)
+    if not spec.unit:
+        return symbol
+    return f"{symbol} (\\si{{{spec.unit}}})" if latex else f"{symbol} ({spec.unit})"
+
+
+def table_rows(result: TableResult) -> list[dict[str, Any]]:
+    """One plain dict per run: the JSON contract's rows (values unrounded).
+
+    With a joint fit, ``fitted_t_b`` and ``alpha`` come from the joint posterior, ``shared``
+    lists the parameters fitted jointly and ``alpha_separate`` keeps the run's own fit.
+    """
+    out = []
+    joint_rows = (result.joint or {}).get("rows", {})
+    for run, row in zip(result.runs.runs, result.rows, strict=True):
+        vary = vary_value(run, result.runs.vary) if result.runs.vary else None
+        computed = row["computed_t_b"]
+        entry: dict[str, Any] = {
+            "label": run.label,
+            "group": run.group,
+            "source": str(run.source),
+            "vary": None if vary is None else {"key": result.runs.vary, "value": vary[0],
+                                                "err": vary[1]},
+            "computed_t_b": computed.get("small-angle", {"value": None, "err": None}),
+            "computed_t_b_pendulum": computed.get("pendulum", {"value": None, "err": None}),
+            "fitted_t_b": row["fitted_t_b"],
+            "alpha": row["alpha"],
+            "model": row["model"],
+            "preferred": row["preferred"],
+            "verdict": row["verdict"],
+            "n_onsets": row["n_onsets"],
+            "warnings": row["warnings"],
+            "shared": list(result.runs.share),
+        }
+        if run.label in joint_rows:
+            entry["alpha_separate"] = row["alpha"]
+            entry["fitted_t_b_separate"] = row["fitted_t_b"]
+            entry.update(joint_rows[run.label])
+        out.append(entry)
+    return out
+
+
+def _cell(entry: dict[str, Any] | None, significant: int | None = None) -> str:
+    if not entry or entry.get("value") is None:
+        return "–"
+    value, err = entry["value"], entry.get("err")
+    if err is None or not (isinstance(err, float | int) and err > 0 and math.isfinite(err)):
+        return f"{value:g}"
+    return format_value_error(value, err, significant)
+
+
+def _split(entry: dict[str, Any] | None, significant: int | None = None) -> tuple[str, str]:
+    """(value, err) strings rounded as :func:`_cell` prints them (CSV)."""
+    text = _cell(entry, significant)
+    if text == "–":
+        return "", ""
+    value, _, err = text.partition(" ± ")
+    return value, err
+
+
+def _preferred(row: dict[str, Any]) -> str:
+    return row["preferred"] or "undecided"
+
+
+def _shared(row: dict[str, Any], key: str) -> str:
+    return _SHARED_MARK if key in row["shared"] else ""
+
+
+def to_markdown(result: TableResult) -> str:
+    """A GitHub Markdown table, with the caption and notes below it."""
+    rows = table_rows(result)
+    vary = result.runs.vary
+    header = ["run", *([vary_header(vary)] if vary else []),
+              *(plain for plain, _ in COLUMNS.values()), "preferred"]
+    lines = [f"**{result.runs.title}**", ""] if result.runs.title else []
+    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        cells = [row["label"], *([_cell(row["vary"], 1)] if vary else [])]
+        for key in COLUMNS:
+            cells.append(_cell(row[key]) + _shared(row, key))
+        cells.append(_preferred(row))
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", *notes(result, rows)]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
+    """Plain-text notes under the table: what the columns are, the joint fit, warnings."""
+    out = ["Computed t_B: the priors (measured geometry with its ±) propagated through the "
+           "small-angle model (as in the paper) and the exact pendulum; fitted t_B and α: "
+           f"posterior mean ± sd of the {rows[0]['model'] if rows else 'main'} model."]
+    joint = result.joint
+    if joint:
+        shared = ", ".join(result.runs.share)
+        out.append(f"{_SHARED_MARK} {shared} fitted jointly across the runs (one posterior); "
+                   + "; ".join(f"{k} = {_cell(v)}" for k, v in joint["shared"].items()) + ".")
+        for key, entry in joint.get("separate", {}).items():
+            parts = ", ".join(f"{label} {_cell(v)}" for label, v in entry.items())
+            out.append(f"Separate fits of {key}: {parts}; {joint['consistency'][key]}.")
+    for row in rows:
+        main = [w for w in row["warnings"] if w.startswith(f"{row['model']}:")]
+        for warning in main:
+            out.append(f"Warning ({row['label']}): {warning}")
+        if len(row["warnings"]) > len(main):
+            out.append(f"({row['label']}: {len(row['warnings']) - len(main)} more warning(s) "
+                       "about the compared models; see --format json.)")
+    return out
+
+
+def to_csv(result: TableResult) -> str:
+    """CSV: each value and its uncertainty in separate columns, rounded as displayed."""
+    rows = table_rows(result)
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    vary = result.runs.vary
+    header = ["label", "group"]
+    if vary:
+        header += [vary, f"{vary}_err"]
+    for key in COLUMNS:
+        header += [key, f"{key}_err"]
+    writer.writerow([*header, "preferred", "shared"])
+    for row in rows:
+        cells = [row["label"], row["group"] or ""]
+        if vary:
+            cells += list(_split(row["vary"], 1))
+        for key in COLUMNS:
+            cells += list(_split(row[key]))
+        writer.writerow([*cells, row["preferred"] or "", " ".join(row["shared"])])
+    return buffer.getvalue()
+
+
+def _latex_escape(text: str) -> str:
+    for old, new in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"),
+                     ("#", r"\#"), ("$", r"\$"), ("{", r"\{"), ("}", r"\}")):
+        text = text.replace(old, new)
+    return text
+
+
+def _latex_cell(entry: dict[str, Any] | None, significant: int | None = None) -> str:
+    text = _cell(entry, significant)
+    if text == "–":
+        return "--"
+    return r"\num{" + text.replace("±", r"\pm") + "}"
+
+
+def to_latex(result: TableResult) -> str:
+    """A booktabs ``tabular`` with siunitx ``\\num{0.22 \\pm 0.01}`` cells."""
+    rows = table_rows(result)
+    vary = result.runs.vary
+    header = ["run", *([vary_header(vary, latex=True)] if vary else []),
+              *(tex for _, tex in COLUMNS.values()), "preferred"]
+    lines = [r"% needs \usepackage{booktabs,siunitx}", r"\begin{tabular}{l" + "c" *
+             (len(header) - 1) + "}", r"\toprule", " & ".join(header) + r" \\", r"\midrule"]
+    for row in rows:
+        cells = [_latex_escape(row["label"]), *([_latex_cell(row["vary"], 1)] if vary else [])]
+        for key in COLUMNS:
+            mark = f"$^{{{_SHARED_MARK}}}$" if _shared(row, key) else ""
+            cells.append(_latex_cell(row[key]) + mark)
+        cells.append(_latex_escape(_preferred(row)))
+        lines.append(" & ".join(cells) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}"]
+    return "\n".join(lines) + "\n"
+
+
+def to_json(result: TableResult) -> str:
+    """``{"rows": [{"label", "vary": {"value", "err"}, "computed_t_b": …}, …]}``."""
+    document: dict[str, Any] = {"title": result.runs.title, "vary": result.runs.vary,
+                                "share": list(result.runs.share), "rows": table_rows(result)}
+    if result.joint:
+        document["joint"] = {k: v for k, v in result.joint.items() if k != "rows"}
+    return json.dumps(document, indent=2) + "\n"
+
+
+def render(result: TableResult, fmt: str) -> str:
+    """The table in ``fmt`` (one of :data:`FORMATS`)."""
+    return {"markdown": to_markdown, "csv": to_csv, "latex": to_latex, "json": to_json}[fmt](
+        result)

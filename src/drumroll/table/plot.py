@@ -1,0 +1,24 @@
+"""Figure 5 of a table: its runs' rows grouped into panels (see :mod:`..reporting.figure5`)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from drumroll.table.execute import TableResult
+
+
+def panels(result: TableResult) -> list[tuple[str | None, list[tuple[str, dict]]]]:
+    """``(group, [(label, row), …])`` per group, in the order the groups first appear."""
+    out: dict[str | None, list[tuple[str, dict]]] = {}
+    for run, row in zip(result.runs.runs, result.rows, strict=True):
+        out.setdefault(run.group, []).append((run.label, row))
+    return list(out.items())
+
+
+def plot_table(result: TableResult, path: str | os.PathLike[str], *,
+               overwrite: bool = False) -> Path:
+    """Write Figure 5 of ``result`` to ``path`` (PNG, atomically)."""
+    from drumroll.reporting.figure5 import plot_figure5
+
+    return plot_figure5(panels(result), path, title=result.runs.title, overwrite=overwrite)
