@@ -269,7 +269,10 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
     if not label.strip():
         raise ConfigError(f"{where}.label: must not be empty")
     where = f"run {label!r}"
-    check_keys(entry, _RUN_KEYS, where)
+    try:
+        check_keys(entry, _RUN_KEYS, "")
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
     if "source" not in entry:
         raise ConfigError(f"{where}: missing 'source' (a recording or onset file)")
     source = (folder / string(entry["source"], f"{where}.source")).resolve()

@@ -1,0 +1,200 @@
+"""``drumroll table``: RUNS.toml validation through the CLI, formatting, Figure 5 (no sampling)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import drumroll.table.execute as execute
+from drumroll.cli.main import main
+from drumroll.table import load_runs, render
+from drumroll.table.execute import TableResult, run_key
+from drumroll.table.plot import plot_table
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+BASE = """
+model = "pendulum"
+compare = ["small-angle"]
+[stick]
+shape = "cylinder-cone"
+length_mm = { dist = "normal", mu = 348, sigma = 1 }
+tip_mm = { dist = "normal", mu = 60, sigma = 1 }
+radius_mm = 7.5
+[priors]
+alpha = { dist = "uniform", low = 0.5, high = 1.0 }
+pivot_mm = { dist = "normal", mu = 131, sigma = 2 }
+height_mm = { dist = "normal", mu = 80, sigma = 3 }
+jitter_ms = { dist = "loguniform", low = 0.01, high = 10 }
+[sampler]
+evidence = false
+max_steps = 500
+walkers = 16
+"""
+
+
+def write_onsets(path: Path, truth: str, n: int = 14, seed: int = 0) -> Path:
+    """Onset times of a bundled recording's truth, with 0.1 ms of jitter."""
+    times = np.array(json.loads((DATA / f"{truth}.truth.json").read_text())
+                     ["model_impact_times_s"][:n])
+    times += 1e-4 * np.random.default_rng(seed).standard_normal(times.size)
+    path.write_text("\n".join(f"{t:.6f}" for t in times) + "\n")
+    return path
+
+
+@pytest.fixture
+def folder(tmp_path: Path) -> Path:
+    (tmp_path / "base.toml").write_text(BASE)
+    write_onsets(tmp_path / "h80.txt", "table2_h80")
+    write_onsets(tmp_path / "d131.txt", "table1_d131", seed=1)
+    return tmp_path
+
+
+def runs_text(*runs: str, header: str = 'base = "base.toml"\nvary = "pivot_mm"\n') -> str:
+    return header + "".join(runs)
+
+
+RUN_H80 = '\n[[run]]\nlabel = "h80"\nsource = "h80.txt"\n'
+
+
+def run_d131(keys: str = "") -> str:
+    return ('\n[[run]]\nlabel = "d131"\nsource = "d131.txt"\n' + keys + '[run.priors]\n'
+            'pivot_mm = { dist = "normal", mu = 131, sigma = 2 }\n')
+
+
+@pytest.fixture
+def no_sampling(monkeypatch):
+    """Fail the test if anything gets to the sampling stage."""
+    def boom(*args, **kwargs):
+        raise AssertionError("sampling started")
+    monkeypatch.setattr(execute, "compute_run", boom)
+
+
+def cli_error(folder: Path, text: str, capsys, *extra: str) -> str:
+    (folder / "runs.toml").write_text(text)
+    status = main(["table", str(folder / "runs.toml"), "-q", *extra])
+    err = capsys.readouterr().err.strip()
+    assert status == 2, err
+    assert "\n" not in err and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    (runs_text(RUN_H80, RUN_H80), "duplicate label 'h80'"),
+    (runs_text(RUN_H80.replace("h80.txt", "missing.txt")), "missing.txt: no such file"),
+    (runs_text(RUN_H80 + '[run.priors]\npivto_mm = 131\n'),
+     "run 'h80': priors.pivto_mm: unknown key (did you mean 'pivot_mm'?)"),
+    (runs_text(RUN_H80 + '[run.stick]\nlenght_mm = 350\n'), "did you mean 'length_mm'?"),
+    (runs_text(RUN_H80 + 'colour = "red"\n'), "run 'h80': colour: unknown key"),
+    (runs_text(RUN_H80, header='base = "base.toml"\nvary = "pivot"\n'),
+     "vary: 'pivot' is not a parameter (did you mean 'pivot_mm'?)"),
+    (runs_text(RUN_H80, header='base = "nope.toml"\n'), "nope.toml: no such config file"),
+    (runs_text(RUN_H80, header='base = "base.toml"\nshare = ["alfa"]\n'),
+     "did you mean 'alpha'?"),
+    (runs_text(RUN_H80, header='base = "base.toml"\nbase = "x"\n'), "invalid TOML"),
+    (runs_text(RUN_H80, header='base = "base.toml"\nvray = "pivot_mm"\n'),
+     "vray: unknown key (did you mean 'vary'?)"),
+    (runs_text(RUN_H80 + '[run.priors]\npivot_mm = { dist = "normal", mu = 131 }\n'),
+     "priors.pivot_mm: the normal distribution needs 'sigma'"),
+    ('base = "base.toml"\n', "run: no runs"),
+    (runs_text(RUN_H80 + '[run.sampler]\nmax_step = 10\n'), "did you mean 'max_steps'?"),
+])
+def test_bad_runs_files_fail_before_sampling(folder, capsys, no_sampling, text, expected):
+    err = cli_error(folder, text, capsys)
+    assert expected in err
+    assert err.startswith("drumroll: error: ")
+
+
+def test_outputs_checked_before_sampling(folder, capsys, no_sampling):
+    (folder / "table.md").write_text("mine")
+    err = cli_error(folder, runs_text(RUN_H80), capsys, "-o", str(folder / "table.md"))
+    assert "already exists" in err
+    assert (folder / "table.md").read_text() == "mine"
+
+
+def test_dask_missing_is_one_line(folder, capsys, monkeypatch, no_sampling):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def fake_import(name, *args, **kwargs):
+        if name == "distributed":
+            raise ImportError("no dask")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", fake_import)
+    err = cli_error(folder, runs_text(RUN_H80), capsys, "--dask", "tcp://localhost:1")
+    assert "pip install 'drumroll[dask]'" in err
+
+
+def test_parsed_runs(folder):
+    (folder / "runs.toml").write_text(runs_text(RUN_H80, run_d131('group = "g"\n')))
+    runs = load_runs(folder / "runs.toml")
+    assert [r.label for r in runs.runs] == ["h80", "d131"]
+    assert runs.runs[0].raw["sampler"]["workers"] == 1
+    assert runs.runs[1].group == "g"
+    assert runs.cache_dir == folder / ".drumroll-cache"
+    # the key follows the source's bytes and the effective config, not the label
+    key = run_key(runs.runs[0])
+    (folder / "runs.toml").write_text(runs_text(RUN_H80.replace('"h80"\n', '"other"\n', 1)))
+    assert run_key(load_runs(folder / "runs.toml").runs[0]) == key
+    (folder / "runs.toml").write_text(runs_text(RUN_H80 + "[run.sampler]\nseed = 3\n"))
+    assert run_key(load_runs(folder / "runs.toml").runs[0]) != key
+
+
+def fake_row(alpha: float, t_b: float, n: int = 10) -> dict:
+    k = np.arange(1, n + 1)
+    median = t_b * alpha**k
+    return {
+        "schema": 1, "model": "pendulum", "n_onsets": n + 1,
+        "computed_t_b": {"small-angle": {"value": 0.2509, "err": 0.0061},
+                         "pendulum": {"value": 0.2531, "err": 0.0062}},
+        "fitted_t_b": {"value": t_b, "err": 0.0093}, "alpha": {"value": alpha, "err": 0.0102},
+        "parameters": {}, "preferred": None, "verdict": "undecided", "warnings": [],
+        "flights": {"observed": (median * 1.01).tolist(), "observed_err": [1e-3] * n,
+                    "lo": (median * 0.99).tolist(), "median": median.tolist(),
+                    "hi": (median * 1.01).tolist()},
+        "seconds": 1.0,
+    }
+
+
+@pytest.fixture
+def fake_result(folder) -> TableResult:
+    (folder / "runs.toml").write_text(
+        runs_text(RUN_H80 + 'group = "a"\n', run_d131('group = "b"\n'),
+                  header='base = "base.toml"\nvary = "pivot_mm"\ntitle = "Table 1"\n'))
+    runs = load_runs(folder / "runs.toml")
+    return TableResult(runs=runs, rows=[fake_row(0.86, 0.21), fake_row(0.88, 0.26)])
+
+
+def test_markdown_is_rounded_like_the_paper(fake_result):
+    text = render(fake_result, "markdown")
+    assert "| h80 | 131 ± 2 | 0.251 ± 0.006 | 0.253 ± 0.006 | 0.210 ± 0.009 | 0.860 ± 0.010 |" \
+        in text
+    assert text.startswith("**Table 1**")
+    assert "undecided" in text
+
+
+def test_csv_latex_json(fake_result):
+    rows = list(csv.DictReader(io.StringIO(render(fake_result, "csv"))))
+    assert rows[0]["pivot_mm"] == "131" and rows[0]["pivot_mm_err"] == "2"
+    assert rows[1]["alpha"] == "0.880" and rows[1]["alpha_err"] == "0.010"
+    latex = render(fake_result, "latex")
+    assert r"\toprule" in latex and r"\num{0.880 \pm 0.010}" in latex
+    document = json.loads(render(fake_result, "json"))
+    row = document["rows"][0]
+    assert set(row) >= {"label", "vary", "computed_t_b", "fitted_t_b", "alpha", "preferred"}
+    assert row["vary"]["value"] == 131 and row["vary"]["err"] == 2
+    assert row["alpha"] == {"value": 0.86, "err": 0.0102}
+
+
+def test_figure5_from_rows(fake_result, tmp_path):
+    path = plot_table(fake_result, tmp_path / "fig.png")
+    assert path.stat().st_size > 10_000
+    with pytest.raises(Exception, match="already exists"):
+        plot_table(fake_result, tmp_path / "fig.png")

@@ -1,0 +1,85 @@
+"""``drumroll table`` end to end on onset files with tiny sampler settings: cache, executors."""
+
+from __future__ import annotations
+
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import pytest
+
+from drumroll.cli.main import main
+from drumroll.table import load_runs, run_table
+from test_table import BASE, RUN_H80, run_d131, runs_text, write_onsets
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    """Two runs estimated once through the CLI (the cache then holds them)."""
+    path = tmp_path_factory.mktemp("table")
+    (path / "base.toml").write_text(BASE)
+    write_onsets(path / "h80.txt", "table2_h80")
+    write_onsets(path / "d131.txt", "table1_d131", seed=1)
+    (path / "runs.toml").write_text(runs_text(RUN_H80, run_d131()))
+    status = main(["table", str(path / "runs.toml"), "-q", "--workers", "1",
+                   "-o", str(path / "table.json"), "--plot", str(path / "fig5.png")])
+    assert status == 0
+    return path
+
+
+def test_table_values(folder):
+    rows = json.loads((folder / "table.json").read_text())["rows"]
+    assert [r["label"] for r in rows] == ["h80", "d131"]
+    for row, truth in zip(rows, (0.90, 0.88), strict=True):
+        assert abs(row["alpha"]["value"] - truth) < 0.01
+        assert abs(row["fitted_t_b"]["value"] - 0.2531) < 0.002
+        assert abs(row["computed_t_b"]["value"] - 0.251) < 0.003  # small-angle, priors
+        assert row["computed_t_b"]["err"] == pytest.approx(0.006, abs=0.0015)
+        assert row["computed_t_b_pendulum"]["value"] > row["computed_t_b"]["value"]
+        assert row["vary"] == {"key": "pivot_mm", "value": 131.0, "err": 2.0}
+    assert (folder / "fig5.png").stat().st_size > 10_000
+    assert len(list((folder / ".drumroll-cache").glob("*.json"))) == 2
+
+
+def test_unchanged_table_comes_from_the_cache(folder, capsys):
+    started = time.perf_counter()
+    assert main(["table", str(folder / "runs.toml")]) == 0
+    assert time.perf_counter() - started < 2.0
+    out, err = capsys.readouterr()
+    assert "2 of 2 runs from the cache" in err
+    assert "| h80 | 131 ± 2 |" in out
+
+
+def test_a_new_run_is_the_only_one_computed(folder, tmp_path):
+    (folder / "runs3.toml").write_text(runs_text(
+        RUN_H80, run_d131(), '\n[[run]]\nlabel = "h80-again"\nsource = "h80.txt"\n'
+        '[run.sampler]\nseed = 7\n'))
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        result = run_table(load_runs(folder / "runs3.toml"), executor=pool)
+    assert result.computed == ["h80-again"]
+    assert abs(result.rows[2]["alpha"]["value"] - 0.90) < 0.01
+
+
+def test_corrupt_cache_entry_is_recomputed(folder, tmp_path):
+    runs = load_runs(folder / "runs.toml")
+    cache = tmp_path / "cache"
+    first = run_table(runs, cache_dir=cache, workers=1)
+    entry = next(cache.glob("*.json"))
+    entry.write_text("{not json")
+    again = run_table(runs, cache_dir=cache, workers=1)
+    assert len(again.computed) == 1
+    assert again.rows[0]["alpha"] == first.rows[0]["alpha"]  # same seed, same numbers
+
+
+def test_dask_executor(folder):
+    distributed = pytest.importorskip("distributed")
+    runs = load_runs(folder / "runs.toml")
+    with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) \
+            as cluster, distributed.Client(cluster) as client:
+        result = run_table(runs, executor=client.get_executor(), use_cache=False)
+    assert result.computed == ["h80", "d131"]
+    cached = run_table(runs)
+    assert cached.computed == []
+    for a, b in zip(result.rows, cached.rows, strict=True):
+        assert a["alpha"]["value"] == pytest.approx(b["alpha"]["value"], rel=1e-12)
