@@ -134,13 +134,15 @@ def throughput() -> None:
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "60s.wav"
         sf.write(path, x, 44100, subtype="PCM_16")
-        best = np.inf
+        best, best_cpu = np.inf, np.inf
         for _ in range(3):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             detect(path)
             best = min(best, time.perf_counter() - t0)
-    print(f"throughput: 60 s at 44.1 kHz in {best:.3f} s = {60 / best:.0f}x real time "
-          "(goal >= 200x)")
+            best_cpu = min(best_cpu, time.process_time() - c0)
+    # CPU time is the one-core figure; wall time also counts whatever else the machine runs.
+    print(f"throughput: 60 s at 44.1 kHz in {best_cpu:.3f} s CPU = {60 / best_cpu:.0f}x real "
+          f"time on one core (wall {best:.3f} s = {60 / best:.0f}x; goal >= 200x)")
 
 
 _MEM_CHILD = """
@@ -193,8 +195,10 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--no-memory", action="store_true")
     ap.add_argument("--no-peers", action="store_true")
+    ap.add_argument("--no-grid", action="store_true", help="only throughput and memory")
     args = ap.parse_args()
-    run_grid(args.trials, args.quick, not args.no_peers)
+    if not args.no_grid:
+        run_grid(args.trials, args.quick, not args.no_peers)
     throughput()
     if not args.no_memory:
         memory()
