@@ -7,6 +7,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from drumroll.cli.main import main
@@ -83,3 +84,67 @@ def test_dask_executor(folder):
     assert cached.computed == []
     for a, b in zip(result.rows, cached.rows, strict=True):
         assert a["alpha"]["value"] == pytest.approx(b["alpha"]["value"], rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def joint_folder(tmp_path_factory) -> Path:
+    """Two set-ups (d = 131 and 110 mm) with the same α = 0.9, stick dimensions fixed."""
+    from drumroll.physics import StickGeometry, bounce_sequence
+
+    path = tmp_path_factory.mktemp("joint")
+    base = BASE.replace('{ dist = "normal", mu = 348, sigma = 1 }', "348").replace(
+        '{ dist = "normal", mu = 60, sigma = 1 }', "60").replace("max_steps = 500",
+                                                                 "max_steps = 300")
+    (path / "base.toml").write_text(base)
+    stick = StickGeometry("cylinder-cone", length=0.348, tip=0.060, radius=0.0075)
+    rng = np.random.default_rng(3)
+    for name, pivot in (("a", 0.131), ("b", 0.110)):
+        impacts = bounce_sequence("pendulum", alpha=np.array([0.9]), pivot=pivot, height=0.08,
+                                  stick=stick, n_flights=12).impacts[0]
+        times = 1.0 + impacts + 1e-4 * rng.standard_normal(impacts.size)
+        (path / f"{name}.txt").write_text("\n".join(f"{t:.6f}" for t in times) + "\n")
+    (path / "runs.toml").write_text(
+        'base = "base.toml"\nvary = "pivot_mm"\nshare = ["alpha"]\n'
+        '[[run]]\nlabel = "a"\nsource = "a.txt"\n'
+        '[[run]]\nlabel = "b"\nsource = "b.txt"\n'
+        '[run.priors]\npivot_mm = { dist = "normal", mu = 110, sigma = 2 }\n')
+    return path
+
+
+def test_joint_posterior_is_the_sum_of_the_runs(joint_folder):
+    from drumroll.inference.likelihood import OnsetData
+    from drumroll.inference.posterior import LogPosterior
+    from drumroll.table.joint import JointPosterior
+
+    runs = load_runs(joint_folder / "runs.toml")
+    parts = []
+    for run in runs.runs:
+        times = np.loadtxt(run.source)
+        parts.append(LogPosterior.build(run.config, "pendulum", OnsetData.from_arrays(times)))
+    joint = JointPosterior(parts, ["a", "b"], ("alpha",))
+    assert joint.space.names[0] == "shared:alpha" and joint.space.ndim == 7
+    z = joint.space.sample_prior(np.random.default_rng(0), 50)
+    xa, xb = joint.run_parameters(z)
+    np.testing.assert_array_equal(xa[:, 0], xb[:, 0])  # one alpha
+    expected = parts[0](xa) + parts[1](xb) - parts[0].space.priors["alpha"].logpdf(xa[:, 0])
+    # the joint density is in sampler coordinates: add each run's log Jacobian (h via q)
+    expected += sum(c.to_parameters(zi)[1] for c, zi in zip(joint.coordinates, joint.split(z),
+                                                             strict=True))
+    finite = np.isfinite(expected)
+    assert finite.sum() > 10
+    np.testing.assert_allclose(joint(z)[finite], expected[finite], rtol=1e-12)
+    assert joint(z[0]) == pytest.approx(joint(z[:1])[0])
+
+
+@pytest.mark.slow
+def test_joint_table(joint_folder, capsys):
+    assert main(["table", str(joint_folder / "runs.toml"), "--workers", "2", "-q",
+                 "--format", "json"]) == 0
+    document = json.loads(capsys.readouterr().out)
+    shared = document["joint"]["shared"]["alpha"]
+    assert abs(shared["value"] - 0.9) < 5 * shared["err"] + 1e-4
+    for row in document["rows"]:
+        assert row["shared"] == ["alpha"]
+        assert row["alpha"]["value"] == shared["value"]
+        assert abs(row["alpha_separate"]["value"] - 0.9) < 0.01
+    assert "consistent with one common value" in document["joint"]["consistency"]["alpha"]

@@ -133,13 +133,14 @@ def compute_run(source: str, raw: dict[str, Any]) -> dict[str, Any]:
         "verdict": result.summary["verdict"],
         "warnings": warnings,
         "onsets_s": [o["time_s"] for o in result.summary["onsets"]],
+        "onset_sigmas_s": [o["sigma_s"] for o in result.summary["onsets"]],
         "flights": {"observed": observed.tolist(), "observed_err": observed_err.tolist(),
                     "lo": lo.tolist(), "median": median.tolist(), "hi": hi.tolist()},
         "seconds": time.perf_counter() - started,
     }
 
 
-def _read_cached(path: Path) -> dict[str, Any] | None:
+def read_cached(path: Path) -> dict[str, Any] | None:
     """A cached row, or None when absent, unreadable or of another schema."""
     try:
         row = json.loads(path.read_text(encoding="utf-8"))
@@ -148,7 +149,7 @@ def _read_cached(path: Path) -> dict[str, Any] | None:
     return row if isinstance(row, dict) and row.get("schema") == CACHE_SCHEMA else None
 
 
-def _write_cached(folder: Path, key: str, row: dict[str, Any]) -> None:
+def write_cached(folder: Path, key: str, row: dict[str, Any]) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     fileio.write_text(folder / f"{key}.json", json.dumps(row, indent=1), overwrite=True)
 
@@ -191,7 +192,7 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
     rows: list[dict[str, Any] | None] = [None] * len(runs.runs)
     if use_cache:
         for i, key in enumerate(keys):
-            rows[i] = _read_cached(folder / f"{key}.json")
+            rows[i] = read_cached(folder / f"{key}.json")
     todo = [i for i, row in enumerate(rows) if row is None]
     for i in todo:  # every config fully valid before anything is sampled
         validate_estimation(runs.runs[i])
@@ -201,7 +202,7 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
     def finish(i: int, row: dict[str, Any]) -> None:
         rows[i] = row
         if use_cache:
-            _write_cached(folder, keys[i], row)
+            write_cached(folder, keys[i], row)
         done = sum(r is not None for r in rows)
         say(f"run {runs.runs[i].label!r}: done in {row['seconds']:.1f} s ({done}/{len(rows)})")
 

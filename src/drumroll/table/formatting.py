@@ -134,8 +134,13 @@ def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
     joint = result.joint
     if joint:
         shared = ", ".join(result.runs.share)
-        out.append(f"{_SHARED_MARK} {shared} fitted jointly across the runs (one posterior); "
-                   + "; ".join(f"{k} = {_cell(v)}" for k, v in joint["shared"].items()) + ".")
+        out.append(f"{_SHARED_MARK} {shared} fitted jointly across the runs (one posterior, "
+                   "which also gives the rows' fitted t_B); "
+                   + "; ".join(f"{k} = {_cell(v)} (R-hat {v['r_hat']:.3f}, ESS "
+                               f"{v['ess_bulk']:.0f})" for k, v in joint["shared"].items())
+                   + f"; {joint['n_steps']} steps" + ("." if joint["converged"] else
+                   ", stopped at the step limit before converging: raise [sampler] "
+                   "max_steps."))
         for key, entry in joint.get("separate", {}).items():
             parts = ", ".join(f"{label} {_cell(v)}" for label, v in entry.items())
             out.append(f"Separate fits of {key}: {parts}; {joint['consistency'][key]}.")
