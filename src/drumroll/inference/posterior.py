@@ -109,19 +109,17 @@ class LogPosterior:
 
     def __call__(self, x: NDArray) -> NDArray | float:
         x = np.asarray(x, float)
-        single = x.ndim == 1
-        if single:
-            x = x[None, :]
-        out = self.space.log_prior(x)
-        if single:
-            return float(out[0] + self.log_likelihood_one(x[0])) if out[0] > -math.inf \
+        if x.ndim == 1:  # one point: the float path (nested sampling, optimisers)
+            log_prior = self.space.log_prior_one(x)
+            return log_prior + self.log_likelihood_one(x) if log_prior > -math.inf \
                 else -math.inf
+        out = self.space.log_prior(x)
         inside = np.isfinite(out)
         if inside.all():
             out = out + self.log_likelihood(x)
         elif inside.any():
             out[inside] += self.log_likelihood(x[inside])
-        return float(out[0]) if single else out
+        return out
 
     def reference(self, x: NDArray) -> NDArray:
         """:meth:`__call__` through the general path (per-column priors, full forward model)."""

@@ -365,6 +365,29 @@ class PriorTable:
             else:
                 self.other.append((i, p))
         self._build_ppf(priors)
+        # One-point evaluation (nested sampling, optimisers): (kind, lower, upper, constant,
+        # mu, sigma, prior) per column, evaluated with ``math``.
+        self.columns: list[tuple[str, float, float, float, float, float, Prior]] = []
+        for i, p in enumerate(priors):
+            kind = type(p)
+            lo, hi = float(self.lower[i]), float(self.upper[i])
+            if kind is Uniform:
+                self.columns.append(("const", lo, hi, -math.log(p.high - p.low) - p._log_mass,
+                                     0.0, 1.0, p))
+            elif kind is LogUniform:
+                self.columns.append(("log", lo, hi, -math.log(math.log(p.high / p.low))
+                                     - p._log_mass, 0.0, 1.0, p))
+            elif kind in (Normal, HalfNormal):
+                mu = p.mu if kind is Normal else 0.0
+                c = -math.log(p.sigma) - _LOG_SQRT_2PI - p._log_mass + (
+                    math.log(2.0) if kind is HalfNormal else 0.0)
+                self.columns.append(("normal", lo, hi, c, mu, p.sigma, p))
+            elif kind is LogNormal:
+                self.columns.append(("lognormal", lo, hi,
+                                     -math.log(p.sigma) - _LOG_SQRT_2PI - p._log_mass,
+                                     p.mu, p.sigma, p))
+            else:
+                self.columns.append(("other", lo, hi, 0.0, 0.0, 1.0, p))
         self.normal_index = np.array([i for i, _, _ in normal], int)
         self.normal_mu = np.array([m for _, m, _ in normal], float)
         self.normal_sigma = np.array([s for _, _, s in normal], float)
@@ -428,6 +451,27 @@ class PriorTable:
             total -= (0.5 * z * z + log_x).sum(axis=1)
         for i, prior in self.other:
             total += prior.logpdf(x[:, i])
+        return total
+
+    def log_pdf_one(self, row: list[float]) -> float:
+        """:meth:`__call__` for one point given as a list of floats (−inf outside)."""
+        total = 0.0
+        for value, (kind, lo, hi, c, mu, sigma, prior) in zip(row, self.columns, strict=True):
+            if not lo <= value <= hi:
+                return -math.inf
+            if kind == "const":
+                total += c
+            elif kind == "normal":
+                z = (value - mu) / sigma
+                total += c - 0.5 * z * z
+            elif kind == "log":
+                total += c - math.log(value)
+            elif kind == "lognormal":
+                log_x = math.log(value)
+                z = (log_x - mu) / sigma
+                total += c - 0.5 * z * z - log_x
+            else:
+                total += float(prior.logpdf(value))
         return total
 
     def ppf(self, u: NDArray) -> NDArray:

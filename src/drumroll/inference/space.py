@@ -94,6 +94,10 @@ class ParameterSpace:
         """Sum of the sampled parameters' log densities, shape ``(batch,)``."""
         return self._table(np.atleast_2d(np.asarray(x, float)))
 
+    def log_prior_one(self, x: NDArray) -> float:
+        """:meth:`log_prior` of one point ``(ndim,)`` as a float (plain ``math``)."""
+        return self._table.log_pdf_one(np.asarray(x, float).tolist())
+
     def log_prior_by_column(self, x: NDArray) -> NDArray:
         """The same sum, one :meth:`Prior.logpdf` per column (the reference for tests)."""
         x = np.atleast_2d(x)
