@@ -114,7 +114,8 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
         raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
                          "(a single hit, noise or silence?)")
     # Three tracked onsets already predict a fourth: the targeted search may supply it.
-    cols = _extend(c.subset(tr.index), p, odf, rate, excerpt, total)
+    cols = until_a_flight_grows(*_extend(c.subset(tr.index), p, odf, rate, excerpt, total),
+                                keep_at_least=p.min_onsets)
     if cols[0].size < p.min_onsets:
         raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
                          f"row, a drumroll needs at least {p.min_onsets}")
@@ -128,6 +129,30 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
                       rejected_snr_db=c.snr_db[left_out],
                       rejected_reason=[reasons[int(i)] for i in left_out], source=name,
                       sample_rate=rate)
+
+
+def until_a_flight_grows(times: np.ndarray, *columns: np.ndarray, keep_at_least: int = 4
+                        ) -> tuple[np.ndarray, ...]:
+    """The roll up to (not including) the onset that ends the first flight longer than the
+    flight before it.
+
+    Every flight of a bouncer is shorter than the one before it (α < 1, in every model), so a
+    flight that grows by more than its timing uncertainty means that a bounce between was
+    missed (masked, or too faint) or that an onset is wrong. The onsets after it could then
+    not be numbered, and a fit would take bounce k + 1 for bounce k: the roll is reported up
+    to the gap. ``columns[-1]`` must be the per-onset timing uncertainty ``sigma_s``.
+    """
+    sigma = columns[-1]
+    flights = np.diff(times)
+    if flights.size < 2:
+        return (times, *columns)
+    # Each flight difference involves three onset times.
+    spread = np.sqrt(sigma[2:] ** 2 + 4.0 * sigma[1:-1] ** 2 + sigma[:-2] ** 2)
+    grows = np.flatnonzero(flights[1:] - flights[:-1] > 3.0 * spread)
+    if grows.size == 0:
+        return (times, *columns)
+    keep = max(int(grows[0]) + 2, min(keep_at_least, times.size))
+    return tuple(col[:keep] for col in (times, *columns))
 
 
 #: Candidates this close to a reported onset are that onset.

@@ -10,8 +10,8 @@ alarm rate per window, not per file, taken from the tail of the detection functi
 distribution around the roll (an exponential peaks-over-threshold fit, so no constant is tuned
 to one kind of recording). When intervals are short, the detection function is recomputed with
 windows shorter than the interval, so the previous bounce does not mask the next. The walk
-stops where the evidence in the predicted window (and in the one after it, in case a single
-bounce is masked) is no longer significant.
+stops where the evidence in the predicted window is no longer significant. A masked bounce
+ends the walk: the onsets after it could not be numbered.
 """
 
 from __future__ import annotations
@@ -163,14 +163,10 @@ def follow(times: list[float], sigmas: list[float], ex: Excerpt, p: FollowParams
         pred = _predict(np.asarray(t), np.asarray(sig), p)
         if pred is None:
             break
-        got = None
-        for n_ahead in (1, 2):  # the next bounce, or the one after it if that one is masked
-            dt, s_log = pred(n_ahead)
-            if dt < min_interval_s or t[-1] + dt > stop_s:
-                break
-            got = _search(t[-1], dt, s_log, ex, p, tails, hop_s, ref)
-            if got is not None:
-                break
+        dt, s_log = pred(1)
+        if dt < min_interval_s or t[-1] + dt > stop_s:
+            break
+        got = _search(t[-1], dt, s_log, ex, p, tails, hop_s, ref)
         if got is None:
             break
         time_s, r = got
