@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -37,14 +38,22 @@ def runs_file(folder: Path, evidence: bool) -> Path:
     return path
 
 
-def wall_time(runs: Path, workers: int) -> float:
-    """Seconds of ``drumroll table RUNS --workers N`` with a fresh cache folder."""
+def wall_time(runs: Path, workers: int) -> tuple[float, float]:
+    """Wall and CPU seconds of ``drumroll table RUNS --workers N`` with a fresh cache folder.
+
+    The CPU time (all child processes) over the wall time is the parallelism the command got:
+    on a busy machine it falls below the number of workers, and so does the speed-up.
+    """
     with tempfile.TemporaryDirectory() as cache:
         command = [sys.executable, "-m", "drumroll.cli.main", "table", str(runs), "-q",
                    "--workers", str(workers), "--cache-dir", cache]
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         started = time.perf_counter()
         subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-        return time.perf_counter() - started
+        wall = time.perf_counter() - started
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+        return wall, cpu
 
 
 def main() -> None:
@@ -58,8 +67,10 @@ def main() -> None:
         runs = runs_file(Path(tmp), evidence=not args.no_evidence)
         times = {}
         for workers in (1, 2):
-            times[workers] = min(wall_time(runs, workers) for _ in range(args.repeat))
-            print(f"--workers {workers}: {times[workers]:7.1f} s")
+            wall, cpu = min(wall_time(runs, workers) for _ in range(args.repeat))
+            times[workers] = wall
+            print(f"--workers {workers}: {wall:7.1f} s wall, {cpu:7.1f} s CPU "
+                  f"(parallelism {cpu / wall:.2f}), load average {os.getloadavg()[0]:.1f}")
     ratio = times[2] / times[1]
     print(f"ratio (2 workers / 1 worker): {ratio:.2f} (goal <= 0.6)")
     print(f"load average at the end: {os.getloadavg()[0]:.1f}")

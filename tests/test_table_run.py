@@ -73,17 +73,32 @@ def test_corrupt_cache_entry_is_recomputed(folder, tmp_path):
     assert again.rows[0]["alpha"] == first.rows[0]["alpha"]  # same seed, same numbers
 
 
-def test_dask_executor(folder):
+def test_dask_executor(folder, capsys):
     distributed = pytest.importorskip("distributed")
-    runs = load_runs(folder / "runs.toml")
     with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) \
-            as cluster, distributed.Client(cluster) as client:
-        result = run_table(runs, executor=client.get_executor(), use_cache=False)
-    assert result.computed == ["h80", "d131"]
-    cached = run_table(runs)
+            as cluster:
+        status = main(["table", str(folder / "runs.toml"), "--dask", cluster.scheduler_address,
+                       "--no-cache", "--format", "json"])
+    out, err = capsys.readouterr()
+    assert status == 0, err
+    assert "estimating 2 runs on ClientExecutor" in err
+    cached = run_table(load_runs(folder / "runs.toml"))
     assert cached.computed == []
-    for a, b in zip(result.rows, cached.rows, strict=True):
-        assert a["alpha"]["value"] == pytest.approx(b["alpha"]["value"], rel=1e-12)
+    for row, again in zip(json.loads(out)["rows"], cached.rows, strict=True):
+        assert row["alpha"]["value"] == pytest.approx(again["alpha"]["value"], rel=1e-12)
+
+
+def test_a_failing_run_is_one_line_and_the_others_stay_cached(folder, tmp_path, capsys):
+    (folder / "short.txt").write_text("1.0\n1.2\n1.35\n")
+    (folder / "runs_bad.toml").write_text(runs_text(
+        RUN_H80, '\n[[run]]\nlabel = "short"\nsource = "short.txt"\n'))
+    status = main(["table", str(folder / "runs_bad.toml"), "-q", "--workers", "2",
+                   "--cache-dir", str(tmp_path)])
+    err = capsys.readouterr().err.strip()
+    assert status == 2
+    assert err.startswith("drumroll: error: run 'short': ") and "only 3 onsets" in err
+    assert "\n" not in err
+    assert len(list(tmp_path.glob("*.json"))) == 1  # h80 finished and was cached
 
 
 @pytest.fixture(scope="module")

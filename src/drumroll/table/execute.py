@@ -206,6 +206,12 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
         done = sum(r is not None for r in rows)
         say(f"run {runs.runs[i].label!r}: done in {row['seconds']:.1f} s ({done}/{len(rows)})")
 
+    errors: list[DrumrollError] = []
+
+    def fail(i: int, exc: DrumrollError) -> None:
+        errors.append(DrumrollError(f"run {runs.runs[i].label!r}: {exc}"))
+        say(f"run {runs.runs[i].label!r} failed: {exc}")
+
     if todo:
         n = max(1, min(workers or default_workers(), len(todo)))
         say(f"estimating {len(todo)} run{'s' if len(todo) > 1 else ''} "
@@ -213,36 +219,41 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
                f"in {n} process{'es' if n > 1 else ''}"))
         if executor is None and n == 1:
             for i in todo:
-                run = runs.runs[i]
-                finish(i, _guarded(run, lambda run=run: compute_run(str(run.source), run.raw)))
+                try:
+                    row = compute_run(str(runs.runs[i].source), runs.runs[i].raw)
+                except DrumrollError as exc:
+                    fail(i, exc)
+                    continue
+                finish(i, row)
         elif executor is not None:
-            _submit_all(executor, runs, todo, finish)
+            _submit_all(executor, runs, todo, finish, fail)
         else:
             with ProcessPoolExecutor(max_workers=n) as pool:
-                _submit_all(pool, runs, todo, finish)
+                _submit_all(pool, runs, todo, finish, fail)
+    if errors:  # the runs that succeeded are cached: fix the failing one and re-run
+        raise errors[0]
     return TableResult(runs=runs, rows=[r for r in rows if r is not None],
                        computed=[runs.runs[i].label for i in todo],
                        seconds=time.perf_counter() - started)
 
 
-def _guarded(run: Run, call: Callable[[], dict[str, Any]]) -> dict[str, Any]:
-    """``call()``, with a user error prefixed by the run's label."""
-    try:
-        return call()
-    except DrumrollError as exc:
-        raise DrumrollError(f"run {run.label!r}: {exc}") from None
-
-
 def _submit_all(executor: Executor, runs: RunsFile, todo: list[int],
-                finish: Callable[[int, dict[str, Any]], None]) -> None:
-    """Submit the runs in ``todo``; hand each result to ``finish`` as it completes."""
+                finish: Callable[[int, dict[str, Any]], None],
+                fail: Callable[[int, DrumrollError], None]) -> None:
+    """Submit the runs in ``todo``; hand each result to ``finish`` (or its user error to
+    ``fail``) as it completes. Anything else, Ctrl-C included, cancels the runs not started."""
     futures: dict[Future, int] = {
         executor.submit(compute_run, str(runs.runs[i].source), runs.runs[i].raw): i
         for i in todo}
     try:
         for future in as_completed(futures):
             i = futures[future]
-            finish(i, _guarded(runs.runs[i], future.result))
+            try:
+                row = future.result()
+            except DrumrollError as exc:
+                fail(i, exc)
+                continue
+            finish(i, row)
     except BaseException:
         for future in futures:
             future.cancel()
