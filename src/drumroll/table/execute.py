@@ -4,13 +4,14 @@ Each run is one :func:`drumroll.pipeline.estimate` (main model and its compariso
 prior propagation of :func:`~drumroll.inference.prior_predictive.propagate` (the paper's
 "computed t_B"). Runs go to a :class:`concurrent.futures.Executor` (processes, or a Dask
 cluster's executor); each finished run is written at once, atomically, to
-``<cache>/<key>.json``, where the key hashes the source file's bytes, the effective config and
-the drumroll version. An unchanged table is then read back without sampling, a new run is the
-only one computed, and an interrupted table resumes where it stopped.
+``<cache>/<key>.json``, where the key hashes the source file's bytes, the effective config,
+the drumroll version and its code. An unchanged table is then read back without sampling, a
+new run is the only one computed, and an interrupted table resumes where it stopped.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -69,10 +70,26 @@ def file_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
+@functools.cache
+def code_digest() -> str:
+    """SHA-256 of the drumroll package's Python sources.
+
+    The version alone does not change while the package is developed (an editable install):
+    with this in the key, any edit of the code invalidates the cache (a few ms to compute).
+    """
+    digest = hashlib.sha256()
+    package = Path(__file__).resolve().parents[1]
+    for path in sorted(package.rglob("*.py")):
+        digest.update(str(path.relative_to(package)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 def run_key(run: Run) -> str:
-    """The cache key of a run: its source's bytes, effective config and drumroll version."""
+    """The cache key of a run: its source's bytes, effective config, the drumroll version and
+    its code (:func:`code_digest`)."""
     document = {"source_sha256": file_digest(run.source), "config": run.raw,
-                "version": __version__, "schema": CACHE_SCHEMA,
+                "version": __version__, "code": code_digest(), "schema": CACHE_SCHEMA,
                 "predict": [PREDICT_DRAWS, PREDICT_SEED]}
     text = json.dumps(document, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:40]
