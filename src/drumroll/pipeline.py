@@ -23,6 +23,7 @@ import numpy as np
 from drumroll import __version__
 from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
+from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.inference.comparison import compare_models
 from drumroll.inference.evidence import Evidence, compute_evidence
 from drumroll.inference.inference_data import EXPORT, build_inference_data
@@ -33,8 +34,6 @@ from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.inference.summary import diagnostics, parameter_summary
 from drumroll.onsets import OnsetTable, detect, read_onsets
 
-#: Suffixes read as onset files rather than audio.
-ONSET_FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".lab", ".labels")
 #: Fewest onsets that can constrain a model (three flights).
 MIN_ONSETS = 4
 #: Posterior draws kept per model (beyond this the chain is thinned further: the ESS of every

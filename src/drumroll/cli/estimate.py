@@ -6,13 +6,16 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from drumroll.cli.progress import Progress
 from drumroll.config import load_config
 from drumroll.errors import DrumrollError
-from drumroll.pipeline import ONSET_FILE_SUFFIXES, Result, estimate
+from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.reporting.numbers import format_value_error
-from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
+
+if TYPE_CHECKING:
+    from drumroll.pipeline import Result
 
 #: Truth-file keys (``drumroll simulate``) → posterior names, for the corner plot.
 _TRUTH_KEYS = {"alpha": "alpha", "pivot_mm": "pivot_mm", "height_mm": "height_mm",
@@ -84,6 +87,11 @@ def _apply_overrides(config, args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     """Run ``estimate``: check inputs and outputs first, then sample, then write."""
+    # Imported here: the samplers and ArviZ take seconds to import, which other commands
+    # (and ``--help``) should not pay.
+    from drumroll.pipeline import estimate
+    from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
+
     source = Path(args.source)
     if not source.exists():
         raise DrumrollError(f"{source}: no such file")

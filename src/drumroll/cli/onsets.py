@@ -6,7 +6,6 @@ import argparse
 import sys
 
 from drumroll import fileio
-from drumroll.onsets import detect
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -33,6 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``drumroll onsets``."""
+    from drumroll.onsets import detect  # scipy.signal: imported only when needed
+
     # Refuse to clobber before doing the work, not after it.
     for path in (args.output, args.labels, args.plot):
         if path:

@@ -13,6 +13,7 @@ import argparse
 import json
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import soundfile as sf
@@ -21,8 +22,9 @@ from drumroll import __version__
 from drumroll.config import load_config
 from drumroll.errors import ConfigError, DrumrollError, DrumrollWarning
 from drumroll.fileio import check_writable, write_text, write_with
-from drumroll.simulation import render
-from drumroll.simulation.settings import SimulateSettings, true_impacts
+
+if TYPE_CHECKING:
+    from drumroll.simulation.settings import SimulateSettings
 
 #: Container by file suffix.
 CONTAINERS = {".wav": "WAV", ".flac": "FLAC", ".ogg": "OGG"}
@@ -49,6 +51,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``simulate``."""
+    from drumroll.simulation import render  # the simulator: imported only when needed
+    from drumroll.simulation.settings import true_impacts
+
     output = Path(args.output)
     container = CONTAINERS.get(output.suffix.lower())
     if container is None:

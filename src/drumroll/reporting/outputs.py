@@ -124,7 +124,7 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
         Output name → final path.
     """
     audio = result.source if result.source is not None and result.source.suffix.lower() \
-        not in (".csv", ".txt", ".tsv", ".lab", ".labels") else None
+        not in fileio.ONSET_FILE_SUFFIXES else None
     names = output_files(include_onsets_figure=audio is not None)
     out_dir = check_outputs(out_dir, names, overwrite=overwrite)
     out_dir.mkdir(exist_ok=True)
