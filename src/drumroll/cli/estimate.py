@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from drumroll.cli.arguments import positive_int
 from drumroll.cli.progress import Progress
 from drumroll.config import load_config
 from drumroll.errors import DrumrollError
@@ -36,7 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--truth", type=Path, help="truth JSON of a simulated recording "
                         "(drawn on the corner plot)")
     parser.add_argument("--seed", type=int, help="override [sampler] seed")
-    parser.add_argument("--workers", type=int, help="processes fitting models side by side")
+    parser.add_argument("--workers", type=positive_int, metavar="N",
+                        help="processes fitting models side by side")
     parser.add_argument("--no-evidence", action="store_true",
                         help="skip nested sampling (no Bayes factors; LOO only)")
     parser.add_argument("--force", action="store_true", help="overwrite existing outputs")
@@ -76,8 +78,6 @@ def _apply_overrides(config, args: argparse.Namespace):
     if args.seed is not None:
         sampler["seed"] = args.seed
     if args.workers is not None:
-        if args.workers < 1:
-            raise DrumrollError("--workers must be at least 1")
         sampler["workers"] = args.workers
     if args.no_evidence:
         sampler["evidence"] = False

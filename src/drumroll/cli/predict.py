@@ -7,6 +7,7 @@ import json
 import math
 import warnings
 
+from drumroll.cli.arguments import positive_int
 from drumroll.config import load_config
 from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.inference.prior_predictive import Prediction, predictable_models, propagate
@@ -25,22 +26,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "has a prior), and print t_C, t_B, θ_C, ω_C and the first flight times as mean ± sd.")
     parser.add_argument("config", help="TOML config file")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("-n", "--flights", type=_positive_int, default=5, metavar="N",
+    parser.add_argument("-n", "--flights", type=positive_int, default=5, metavar="N",
                         help="number of flight times to print (default 5)")
-    parser.add_argument("--draws", type=_positive_int, default=20_000,
+    parser.add_argument("--draws", type=positive_int, default=20_000,
                         help="Monte Carlo draws (default 20000)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.set_defaults(func=run)
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from concurrent.futures import Executor
 from pathlib import Path
 
+from drumroll.cli.arguments import positive_int
 from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
 from drumroll.fileio import check_writable, write_text
@@ -16,16 +17,6 @@ from drumroll.fileio import check_writable, write_text
 #: Output format by file suffix.
 SUFFIX_FORMATS = {".md": "markdown", ".markdown": "markdown", ".csv": "csv", ".tex": "latex",
                   ".json": "json"}
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -42,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--format", choices=("markdown", "csv", "latex", "json"),
                         help="table format (default: from the -o suffix, else markdown)")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write Figure 5 here")
-    parser.add_argument("--workers", type=_positive_int, metavar="N",
+    parser.add_argument("--workers", type=positive_int, metavar="N",
                         help="runs estimated side by side (default: the cores)")
     parser.add_argument("--dask", metavar="ADDRESS",
                         help="run on a Dask cluster, e.g. tcp://scheduler:8786 (needs the "

@@ -129,24 +129,38 @@ def load_config(path: str | Path) -> Config:
         physical range, a pivot past the centre of mass, a height the tip cannot reach.
     """
     path = Path(path)
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such config file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{path}: is a directory, expected a TOML config file") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file (expected TOML)") from None
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    raw = read_toml(path, "config file")
     try:
         return parse_config(raw, path=path)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
+
+
+def read_toml(path: Path, what: str, prefix: str = "") -> dict[str, Any]:
+    """The TOML document at ``path``, or a one-line :class:`ConfigError` saying why not.
+
+    Parameters
+    ----------
+    path
+        The file.
+    what
+        What the file should be, for messages ("config file", "runs file").
+    prefix
+        Put before the message (e.g. the key that named the file).
+    """
+    lead = f"{prefix}{path}"
+    try:
+        return tomllib.loads(path.read_bytes().decode("utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{lead}: no such {what}") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{lead}: is a directory, expected a TOML {what}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{lead}: not a text file (expected TOML)") from None
+    except OSError as exc:
+        raise ConfigError(f"{lead}: cannot read ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{lead}: invalid TOML: {exc}") from None
 
 
 def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:

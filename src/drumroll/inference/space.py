@@ -18,6 +18,7 @@ from drumroll.config import Config
 from drumroll.inference.priors import Fixed, LogUniform, Prior, PriorTable
 from drumroll.parameters import MODEL_PARAMETERS, PARAMETERS
 from drumroll.physics import Bounces, StickGeometry, bounce_sequence
+from drumroll.physics.geometry import mass_properties_squared
 
 #: Prior of the onset jitter when the config gives none (SI: 0.01 to 10 ms, scale-free).
 DEFAULT_JITTER_PRIOR: Prior = LogUniform(low=1e-5, high=1e-2)
@@ -194,18 +195,8 @@ class ParameterSpace:
         d, h = v(x, "pivot"), v(x, "height")
         l1 = v(x, "stick_length")
         v0, theta0 = v(x, "release_speed"), v(x, "release_angle")
-        if self.config.stick.shape == "thin-rod":
-            total_length = l1
-            centre_of_mass = 0.5 * l1
-            k_o_squared = l1**2 / 3.0 + d**2 - l1 * d
-        else:
-            l2, r = v(x, "stick_tip"), v(x, "stick_radius")
-            weight = 3.0 * l1 + l2
-            cylinder = 3.0 * l1 * (0.25 * (r**2 + l1**2 / 3.0) + (0.5 * l1 - d) ** 2)
-            cone = l2 * (3.0 / 80.0 * (4.0 * r**2 + l2**2) + (l1 - d + 0.25 * l2) ** 2)
-            total_length = l1 + l2
-            centre_of_mass = (6.0 * l1**2 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
-            k_o_squared = (cylinder + cone) / weight
+        total_length, centre_of_mass, k_o_squared = mass_properties_squared(
+            self.config.stick.shape, l1, v(x, "stick_tip"), v(x, "stick_radius"), d)
         arm = total_length - d
         finite = alpha + d + h + v0 + theta0 + total_length + centre_of_mass + k_o_squared
         valid = (valid & np.isfinite(finite) & (d >= 0.0) & (d < centre_of_mass) & (h > 0.0)
@@ -356,17 +347,8 @@ class SamplerCoordinates:
         space = self.space
         v = space._value
         d, l1 = v(x, "pivot"), v(x, "stick_length")
-        if space.config.stick.shape == "thin-rod":
-            total_length, centre_of_mass = l1, 0.5 * l1
-            k_o_squared = l1**2 / 3.0 + d**2 - l1 * d
-        else:
-            l2, r = v(x, "stick_tip"), v(x, "stick_radius")
-            weight = 3.0 * l1 + l2
-            cylinder = 3.0 * l1 * (0.25 * (r**2 + l1**2 / 3.0) + (0.5 * l1 - d) ** 2)
-            cone = l2 * (3.0 / 80.0 * (4.0 * r**2 + l2**2) + (l1 - d + 0.25 * l2) ** 2)
-            total_length = l1 + l2
-            centre_of_mass = (6.0 * l1**2 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
-            k_o_squared = (cylinder + cone) / weight
+        total_length, centre_of_mass, k_o_squared = mass_properties_squared(
+            space.config.stick.shape, l1, v(x, "stick_tip"), v(x, "stick_radius"), d)
         gamma = space.config.gravity * (centre_of_mass - d) / k_o_squared
         arm = total_length - d
         ones = np.ones(x.shape[0])

@@ -16,6 +16,23 @@ StickShape = Literal["thin-rod", "cylinder-cone"]
 STICK_SHAPES: tuple[str, ...] = ("thin-rod", "cylinder-cone")
 
 
+def mass_properties_squared(shape: str, length, tip, radius, pivot) -> tuple:
+    """L, l_C and K_O² without broadcasting or conversion: the kernel of eqs. 12–16.
+
+    For hot paths that already hold numpy arrays (or floats) of compatible shapes; see
+    :func:`thin_rod` and :func:`cylinder_cone` for the documented, broadcasting versions.
+    """
+    d = pivot
+    if shape == "thin-rod":
+        return length, 0.5 * length, length**2 / 3.0 + d**2 - length * d
+    l1, l2, r = length, tip, radius
+    weight = 3.0 * l1 + l2
+    cylinder = 3.0 * l1 * (0.25 * (r**2 + l1**2 / 3.0) + (0.5 * l1 - d) ** 2)
+    cone = l2 * (3.0 / 80.0 * (4.0 * r**2 + l2**2) + (l1 - d + 0.25 * l2) ** 2)
+    centre_of_mass = (6.0 * l1**2 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
+    return l1 + l2, centre_of_mass, (cylinder + cone) / weight
+
+
 def thin_rod(length: ArrayLike, pivot: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
     """Homogeneous thin rod pivoted at ``pivot`` from its butt (eqs. 12–13).
 
@@ -32,8 +49,8 @@ def thin_rod(length: ArrayLike, pivot: ArrayLike) -> tuple[NDArray, NDArray, NDA
         L, l_C = L/2 and K_O = sqrt(L²/3 + d² − L d) (m), broadcast together.
     """
     length, pivot = np.broadcast_arrays(np.asarray(length, float), np.asarray(pivot, float))
-    k_o_squared = length**2 / 3.0 + pivot**2 - length * pivot
-    return length, 0.5 * length, np.sqrt(k_o_squared)
+    total, centre, k_o_squared = mass_properties_squared("thin-rod", length, 0.0, 0.0, pivot)
+    return total, centre, np.sqrt(k_o_squared)
 
 
 def cylinder_cone(
@@ -61,11 +78,8 @@ def cylinder_cone(
     """
     l1, l2, r, d = np.broadcast_arrays(*(np.asarray(x, float) for x in
                                          (cylinder_length, tip_length, radius, pivot)))
-    weight = 3.0 * l1 + l2
-    cylinder = 3.0 * l1 * (0.25 * (r**2 + l1**2 / 3.0) + (0.5 * l1 - d) ** 2)
-    cone = l2 * (3.0 / 80.0 * (4.0 * r**2 + l2**2) + (l1 - d + 0.25 * l2) ** 2)
-    centre_of_mass = (6.0 * l1**2 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
-    return l1 + l2, centre_of_mass, np.sqrt((cylinder + cone) / weight)
+    total, centre, k_o_squared = mass_properties_squared("cylinder-cone", l1, l2, r, d)
+    return total, centre, np.sqrt(k_o_squared)
 
 
 @dataclass(frozen=True)

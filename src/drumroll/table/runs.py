@@ -26,13 +26,13 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from drumroll.config import Config, parse_config
+from drumroll.config.loader import read_toml
 from drumroll.config.validate import check_keys, did_you_mean, string, table, type_name
 from drumroll.errors import ConfigError
 from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS, ParameterSpec
@@ -123,18 +123,7 @@ def load_runs(path: str | Path) -> RunsFile:
         ``vary`` or ``share`` key, malformed TOML.
     """
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such runs file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{path}: is a directory, expected a RUNS.toml file") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file (expected TOML)") from None
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    raw = read_toml(path, "runs file")
     try:
         return parse_runs(raw, path)
     except ConfigError as exc:
@@ -210,18 +199,7 @@ def _read_config(folder: Path, value: Any, key: str) -> dict[str, Any]:
     """
     name = string(value, key)
     path = (folder / name).resolve()
-    try:
-        raw = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{key}: {path}: no such config file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{key}: {path}: is a directory, expected a TOML config") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{key}: {path}: not a text file (expected TOML)") from None
-    except OSError as exc:
-        raise ConfigError(f"{key}: {path}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{key}: {path}: invalid TOML: {exc}") from None
+    raw = read_toml(path, "config file", prefix=f"{key}: ")
     for section in _IGNORED_SECTIONS:
         raw.pop(section, None)
     try:
