@@ -15,7 +15,8 @@ from numpy.typing import NDArray
 from scipy.special import ellipkinc
 
 from drumroll.config import Config
-from drumroll.inference.priors import Fixed, LogUniform, Prior, PriorTable
+from drumroll.inference.prior_table import PriorTable
+from drumroll.inference.priors import Fixed, LogUniform, Prior
 from drumroll.parameters import MODEL_PARAMETERS, PARAMETERS
 from drumroll.physics import Bounces, StickGeometry, bounce_sequence
 from drumroll.physics.geometry import mass_properties_squared
