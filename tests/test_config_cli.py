@@ -9,17 +9,14 @@ from pathlib import Path
 
 import pytest
 
+from configs import PAPER_STICK
 from drumroll.cli.main import main
 
 GOOD = textwrap.dedent("""\
     model = "pendulum"
     compare = ["small-angle"]
 
-    [stick]
-    shape = "cylinder-cone"
-    length_mm = 348
-    tip_mm = 60
-    radius_mm = 7.5
+    """) + PAPER_STICK + textwrap.dedent("""\
 
     [priors]
     alpha = { dist = "uniform", low = 0.5, high = 1.0 }

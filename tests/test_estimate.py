@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from configs import PAPER_STICK
 from drumroll.cli.main import estimate_main, main
 from drumroll.inference.likelihood import OnsetData, gaussian_marginal
 from drumroll.inference.loo import conditional_pointwise
@@ -39,11 +40,7 @@ def stick_config(compare: str, evidence: bool, height: float, sigma_h: float = 3
         model = "pendulum"
         compare = [{compare}]
 
-        [stick]
-        shape = "cylinder-cone"
-        length_mm = 348
-        tip_mm = 60
-        radius_mm = 7.5
+        """) + PAPER_STICK + textwrap.dedent(f"""\
 
         [priors]
         alpha = {{ dist = "uniform", low = 0.5, high = 1.0 }}

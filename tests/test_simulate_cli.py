@@ -12,17 +12,14 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from configs import PAPER_STICK
 from drumroll.cli.main import main
 from drumroll.physics import StickGeometry, bounce_sequence
 
 BASE = textwrap.dedent("""\
     model = "pendulum"
 
-    [stick]
-    shape = "cylinder-cone"
-    length_mm = 348
-    tip_mm = 60
-    radius_mm = 7.5
+    """) + PAPER_STICK + textwrap.dedent("""\
 
     [priors]
     alpha = { dist = "uniform", low = 0.5, high = 1.0 }
