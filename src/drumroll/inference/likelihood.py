@@ -115,6 +115,20 @@ def gaussian_marginal_lean(data: OnsetData, impacts: NDArray, jitter: NDArray | 
             - (0.5 * ((n - 1) * _LOG_2PI + math.log(n)) + math.log(T0_WINDOW_S)))
 
 
+def student_t_one(data: OnsetData, impacts: NDArray, jitter: float, t0: float, nu: float
+                  ) -> float:
+    """:func:`student_t` for one sequence ``(N + 1,)`` with float parameters (nested sampling's
+    one-point path: scalars in ``math``, one small array for the onsets)."""
+    scale2 = jitter * jitter + data.sigmas * data.sigmas
+    z2 = (data.times - t0 - impacts) ** 2 / scale2
+    n = data.n_onsets
+    value = (n * (math.lgamma(0.5 * (nu + 1.0)) - math.lgamma(0.5 * nu)
+                  - 0.5 * math.log(nu * math.pi))
+             - 0.5 * float(np.log(scale2).sum())
+             - 0.5 * (nu + 1.0) * float(np.log1p(z2 * (1.0 / nu)).sum()))
+    return value if math.isfinite(value) else -math.inf
+
+
 def pointwise_log_likelihood(data: OnsetData, impacts: NDArray, jitter: NDArray, t0: NDArray,
                              noise: str = "gaussian", nu: NDArray | None = None) -> NDArray:
     """log p(t_k | θ, T0) for every onset, shape ``(batch, N + 1)`` (for PSIS-LOO)."""

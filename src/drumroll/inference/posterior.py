@@ -16,6 +16,7 @@ from drumroll.inference.likelihood import (
     gaussian_marginal_lean,
     pointwise_log_likelihood,
     student_t,
+    student_t_one,
 )
 from drumroll.inference.priors import Fixed, Prior, Uniform
 from drumroll.inference.space import ParameterSpace
@@ -87,16 +88,24 @@ class LogPosterior:
 
     def log_likelihood_one(self, x: NDArray) -> float:
         """The log-likelihood of one point ``(ndim,)`` as a float: nested sampling's path."""
-        if self.noise != "gaussian":
-            return float(self.log_likelihood(x[None, :])[0])
         impacts = self.space.impacts_one(x, self.data.n_flights)
         if impacts is None:
             return -math.inf
         i = self._jitter_column
         jitter = float(x[i]) if i is not None else self.space.priors["jitter"].value
+        if self.noise != "gaussian":
+            values = self._one_point_values(x)
+            with np.errstate(all="ignore"):
+                return student_t_one(self.data, impacts, jitter, values["t0"], values["nu"])
         with np.errstate(all="ignore"):
             value = float(gaussian_marginal_lean(self.data, impacts, jitter))
         return value if math.isfinite(value) else -math.inf
+
+    def _one_point_values(self, x: NDArray) -> dict[str, float]:
+        """``t0`` and ``nu`` of one point as floats (sampled or fixed)."""
+        names = self.space.names
+        return {name: float(x[names.index(name)]) if name in names
+                else float(self.space.priors[name].value) for name in ("t0", "nu")}
 
     def log_likelihood_reference(self, x: NDArray) -> NDArray:
         """The log-likelihood through the full forward model (:class:`Bounces`): slower, the
