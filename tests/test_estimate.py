@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 import textwrap
@@ -13,10 +14,11 @@ import pytest
 
 from configs import PAPER_STICK
 from drumroll.cli.main import estimate_main, main
+from drumroll.inference.evidence import Evidence
 from drumroll.inference.likelihood import OnsetData, gaussian_marginal
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.physics import StickGeometry, bounce_sequence
-from drumroll.pipeline import estimate
+from drumroll.pipeline import estimate, evidence_summary
 from drumroll.reporting.outputs import load_posteriors
 
 STICK = StickGeometry("cylinder-cone", 0.348, 0.060, 0.0075)
@@ -142,6 +144,18 @@ def test_alias_is_installed_and_prints_no_traceback(tmp_path):
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
 
 
+def test_evidence_check_warns_only_when_the_estimates_disagree():
+    nested = Evidence(log_z=10.0, log_z_err=0.3, n_calls=1000)
+    entry, warning = evidence_summary(nested, Evidence(log_z=10.4, log_z_err=0.01, n_calls=0,
+                                                       ess=5000.0))
+    assert warning is None and entry["importance_log_z"] == 10.4
+    assert entry["importance_ess"] == 5000.0
+    _, warning = evidence_summary(nested, Evidence(log_z=12.0, log_z_err=0.01, n_calls=0))
+    assert warning is not None and "disagree" in warning
+    entry, warning = evidence_summary(nested, None)
+    assert warning is None and "importance_log_z" not in entry
+
+
 def test_conditional_pointwise_is_the_ratio_of_marginals():
     """log p(t_i | t_-i, θ) = log p(t | θ) − log p(t_-i | θ) with T0 marginalised."""
     rng = np.random.default_rng(1)
@@ -168,6 +182,9 @@ def test_pendulum_preferred_for_large_contact_angle_and_small_jitter(tmp_path):
     assert result.preferred == "pendulum"
     row = result.summary["comparison"][0]
     assert row["elpd_loo_diff"] > 4 and row["log_bayes_factor"] > 1
+    for evidence in result.summary["evidence"].values():  # two independent ln Z estimates
+        tolerance = 3 * math.hypot(evidence["log_z_err"], evidence["importance_log_z_err"])
+        assert abs(evidence["log_z"] - evidence["importance_log_z"]) < tolerance
     alpha = result.parameter("alpha")
     assert alpha["hdi_low"] < 0.88 < alpha["hdi_high"]
 

@@ -9,11 +9,12 @@ comparison and verdict → :class:`Result`, which :mod:`drumroll.outputs` writes
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,8 +25,8 @@ from drumroll import __version__
 from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
-from drumroll.inference.comparison import compare_models
-from drumroll.inference.evidence import Evidence, compute_evidence
+from drumroll.inference.comparison import LooResult, compare_models
+from drumroll.inference.evidence import Evidence, compute_evidence, importance_evidence
 from drumroll.inference.inference_data import EXPORT, build_inference_data
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
@@ -45,13 +46,14 @@ Progress = Callable[[str], None]
 
 @dataclass
 class ModelFit:
-    """One model's fit: its posterior, chain, InferenceData and evidence."""
+    """One model's fit: its posterior, chain, InferenceData and evidence (with its check)."""
 
     model: str
     log_posterior: LogPosterior
     chain: Chain
     idata: az.InferenceData
     evidence: Evidence | None
+    evidence_check: Evidence | None
     seconds: dict[str, float]
 
 
@@ -73,6 +75,8 @@ class Result:
         The recording or onset file, if read from disk.
     seconds
         Wall time by stage.
+    loos
+        PSIS-LOO of each model (computed on every draw; the figures reuse it).
     """
 
     summary: dict[str, Any]
@@ -81,6 +85,7 @@ class Result:
     config: Config
     source: Path | None
     seconds: dict[str, float] = field(default_factory=dict)
+    loos: dict[str, LooResult] = field(default_factory=dict)
 
     @property
     def model(self) -> str:
@@ -110,19 +115,43 @@ def load_onsets(source: str | os.PathLike[str] | OnsetTable, **options: Any) -> 
 
 
 def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings, seed: int
-         ) -> tuple[Chain, Evidence | None, dict[str, float]]:
-    """Sample one model (and its evidence); runs in a worker process."""
+         ) -> tuple[Chain, Evidence | None, Evidence | None, dict[str, float]]:
+    """Sample one model, and its evidence two independent ways; runs in a worker process.
+
+    Returns the chain, dynesty's evidence and the importance-sampling cross-check (both None
+    without ``evidence``), and the seconds each took.
+    """
     log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
     started = time.perf_counter()
-    sampler = settings.sampler.__class__(**{**settings.sampler.__dict__, "seed": seed})
-    chain = run_emcee(log_posterior, sampler)
+    chain = run_emcee(log_posterior, replace(settings.sampler, seed=seed))
     seconds = {"emcee": time.perf_counter() - started}
-    evidence = None
+    evidence = check = None
     if settings.evidence:
         started = time.perf_counter()
         evidence = compute_evidence(log_posterior, seed=seed, n_live=settings.live_points)
         seconds["dynesty"] = time.perf_counter() - started
-    return chain, evidence, seconds
+        started = time.perf_counter()
+        check = importance_evidence(log_posterior, chain.samples,
+                                    np.random.default_rng(seed + 1))
+        seconds["importance"] = time.perf_counter() - started
+    return chain, evidence, check, seconds
+
+
+def evidence_summary(evidence: Evidence, check: Evidence | None) -> tuple[dict, str | None]:
+    """The ``summary.json`` entry of one model's evidence, and a warning if the two
+    independent estimates (nested sampling, importance sampling) disagree."""
+    entry = {"log_z": evidence.log_z, "log_z_err": evidence.log_z_err,
+             "n_calls": evidence.n_calls}
+    if check is None:
+        return entry, None
+    entry.update(importance_log_z=check.log_z, importance_log_z_err=check.log_z_err,
+                 importance_ess=check.ess)
+    tolerance = 3.0 * math.hypot(evidence.log_z_err, check.log_z_err)
+    if abs(evidence.log_z - check.log_z) <= tolerance:
+        return entry, None
+    return entry, (f"ln Z by nested sampling ({evidence.log_z:.2f} ± {evidence.log_z_err:.2f}) "
+                   f"and by importance sampling ({check.log_z:.2f} ± {check.log_z_err:.2f}) "
+                   "disagree: treat the Bayes factors with care")
 
 
 def thin_draws(idata: az.InferenceData, max_draws: int) -> az.InferenceData:
@@ -199,10 +228,12 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
 
     started = time.perf_counter()
     fits: dict[str, ModelFit] = {}
-    for model, seed, (chain, evidence, fit_seconds) in zip(models, seeds, outputs, strict=True):
+    for model, seed, (chain, evidence, check, fit_seconds) in zip(models, seeds, outputs,
+                                                                    strict=True):
         log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
         idata = build_inference_data(log_posterior, chain, np.random.default_rng(seed))
-        fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, fit_seconds)
+        fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, check,
+                               fit_seconds)
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
     rows, preferred, verdict, loos = compare_models({m: f.idata for m, f in fits.items()},
                                                     config.model, evidences)
@@ -212,6 +243,12 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     parameters = parameter_summary(main.idata, settings.hdi_prob)
     model_diagnostics = {m: diagnostics(f.idata, f.chain, loos[m], settings)
                          for m, f in fits.items()}
+    evidence_entries = {}
+    for m, fit in fits.items():
+        if fit.evidence is not None:
+            evidence_entries[m], warning = evidence_summary(fit.evidence, fit.evidence_check)
+            if warning:
+                model_diagnostics[m]["warnings"].append(f"{m}: {warning}")
     for fit in fits.values():
         fit.idata = thin_draws(fit.idata, MAX_DRAWS)
     summary = {
@@ -224,8 +261,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         "preferred": preferred,
         "verdict": verdict,
         "diagnostics": model_diagnostics,
-        "evidence": {m: {"log_z": e.log_z, "log_z_err": e.log_z_err, "n_calls": e.n_calls}
-                     for m, e in evidences.items()},
+        "evidence": evidence_entries,
         "onsets": [{"time_s": float(t), "sigma_s": float(s)}
                    for t, s in zip(onsets.time_s, onsets.sigma_s, strict=True)],
         "config": config.raw,
@@ -236,4 +272,4 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     }
     return Result(summary=summary, fits=fits, onsets=onsets, config=config,
                   source=None if isinstance(source, OnsetTable) else Path(source),
-                  seconds=seconds)
+                  seconds=seconds, loos=loos)

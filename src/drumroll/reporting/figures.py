@@ -39,16 +39,22 @@ FIGURE_FILES: dict[str, str] = {
 
 
 def loo_comparison(idatas: dict[str, Any], main_model: str,
-                   summary_rows: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
+                   summary_rows: list[dict[str, Any]] | None = None,
+                   loos: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Rows for the comparison figure: every model's elpd and its difference from the main one.
 
     The figure shows differences as *model − main*; ``summary.json`` (and
     :func:`drumroll.inference.comparison.compare_models`) signs them *main − model*. This
-    turns the latter into the former, computing PSIS-LOO when no summary rows are given.
+    turns the latter into the former. PSIS-LOO is computed here only when ``loos`` (model →
+    :class:`~drumroll.inference.comparison.LooResult`, as ``estimate`` already has them) and
+    the summary rows are not both given.
     """
     from drumroll.inference.comparison import compare_models
 
-    rows, _, _, loos = compare_models(idatas, main_model)
+    if loos is None or summary_rows is None:
+        rows, _, _, loos = compare_models(idatas, main_model)
+    else:
+        rows = summary_rows
     given = {str(r["model"]): r for r in (summary_rows or rows)}
     out: list[dict[str, Any]] = [{"model": main_model, "elpd_loo": loos[main_model].elpd,
                                   "elpd_loo_se": loos[main_model].se, "elpd_loo_diff": 0.0,
@@ -69,8 +75,8 @@ def loo_comparison(idatas: dict[str, Any], main_model: str,
 
 def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.PathLike[str],
                   comparison: list[dict[str, Any]] | None = None,
-                  truths: dict[str, float] | None = None, overwrite: bool = False
-                  ) -> dict[str, Path]:
+                  truths: dict[str, float] | None = None, overwrite: bool = False,
+                  loos: dict[str, Any] | None = None) -> dict[str, Path]:
     """Write the five figures of an estimate into ``out_dir``.
 
     Parameters
@@ -90,6 +96,8 @@ def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.Pat
         Known parameter values (simulations), by posterior name, for the corner plot.
     overwrite
         Replace existing files (the command line's ``--force``).
+    loos
+        The PSIS-LOO of each model when already computed (``Result.loos``).
 
     Returns
     -------
@@ -113,7 +121,7 @@ def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.Pat
         fileio.check_writable(path, overwrite=overwrite)
 
     main = idatas[main_model]
-    rows = loo_comparison(idatas, main_model, comparison)
+    rows = loo_comparison(idatas, main_model, comparison, loos)
     written: dict[str, Path] = {}
     written["bounce_series"] = plot_bounce_series(idatas, main_model, paths["bounce_series"],
                                                   overwrite=overwrite)

@@ -132,7 +132,7 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
     try:
         figures = write_figures(result.idatas, result.model, staging,
                                 comparison=result.summary["comparison"], truths=truths,
-                                overwrite=True)
+                                overwrite=True, loos=result.loos)
         if audio is not None:
             figures["onsets"] = write_onset_plot(staging / ONSETS_FIGURE, audio, result.onsets,
                                                  overwrite=True)
