@@ -338,11 +338,6 @@ class SamplerCoordinates:
         object.__setattr__(self, "_logs", logs)
         object.__setattr__(self, "_height", height)
 
-    @property
-    def is_identity(self) -> bool:
-        """Whether z = x."""
-        return not self._logs and self._height is None
-
     def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """γ, L − d, ω0 and θ0 per row (only the columns other than h are used)."""
         space = self.space

@@ -15,22 +15,6 @@ from scipy import ndimage
 MAD_TO_SIGMA = 1.4826
 
 
-def robust_z(odf: np.ndarray, valid: slice | None = None) -> tuple[np.ndarray, float, float]:
-    """Standardise ``odf`` by the median and MAD of the frames in ``valid``.
-
-    Returns
-    -------
-    z, median, sigma
-        ``z = (odf - median) / sigma``; ``sigma`` is never zero (a perfectly flat detection
-        function, e.g. digital silence, gets a tiny positive one so nothing is significant).
-    """
-    ref = odf if valid is None else odf[valid]
-    med = float(np.median(ref)) if ref.size else 0.0
-    sigma = MAD_TO_SIGMA * float(np.median(np.abs(ref - med))) if ref.size else 0.0
-    sigma = max(sigma, 1e-3)  # dB: a rise smaller than this means nothing in any recording
-    return (odf - med) / sigma, med, sigma
-
-
 def local_maxima(z: np.ndarray, threshold: float, half_width: int) -> np.ndarray:
     """Frames where ``z`` is at least ``threshold`` and the largest within ``±half_width``.
 

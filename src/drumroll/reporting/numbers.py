@@ -50,11 +50,3 @@ def format_value_error(value: float, err: float, significant: int | None = None,
     step = 10.0 ** (-decimals)
     return f"{round(value / step) * step:.0f} ± {round(err / step) * step:.0f}{suffix}"
 
-
-def round_to_error(value: float, err: float, significant: int | None = None
-                   ) -> tuple[float, float]:
-    """``(value, err)`` rounded as :func:`format_value_error` prints them."""
-    if not (math.isfinite(err) and err > 0 and math.isfinite(value)):
-        return value, err
-    decimals = error_decimals(err, significant)
-    return round(value, decimals), round(err, decimals)

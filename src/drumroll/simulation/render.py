@@ -88,11 +88,6 @@ class Rendering:
     channel_gains: tuple[float, ...]
 
     @property
-    def impact_speeds(self) -> np.ndarray:
-        """Alias of :attr:`impact_speeds_m_s`."""
-        return self.impact_speeds_m_s
-
-    @property
     def duration_s(self) -> float:
         """Length of the recording in seconds."""
         return len(self.samples) / self.sample_rate

@@ -78,11 +78,6 @@ class Room:
         if not np.isfinite(self.direct_to_reverb_db):
             raise ValueError("Room.direct_to_reverb_db must be finite")
 
-    @property
-    def is_dry(self) -> bool:
-        """True when the room adds nothing to the direct sound."""
-        return not (self.echo and self.echo_gain > 0) and self.reverb_time_s == 0
-
 
 @dataclass(frozen=True)
 class RoomResponse:
