@@ -91,7 +91,7 @@ def main() -> None:
         emcee_s = time.perf_counter() - t
         ess = float(az.ess(chain.samples[..., lp.space.names.index("alpha")], method="bulk"))
         t = time.perf_counter()
-        ev = compute_evidence(lp, seed=args.seed)
+        ev = compute_evidence(lp, chain.samples, seed=args.seed)
         dyn_s = time.perf_counter() - t
         check = importance_evidence(lp, chain.samples, np.random.default_rng(args.seed))
         print(f"{model:12s} {chain.n_steps:6d} {np.max(chain.tau):7.1f} {emcee_s:6.1f} "

@@ -142,7 +142,7 @@ def test_lean_impacts_match_bounces_on_valid_points():
 # --- sampler coordinates ---------------------------------------------------------------------
 
 from drumroll.inference.sampling import SamplerSettings, SamplerTarget, run_emcee  # noqa: E402
-from drumroll.inference.space import SamplerCoordinates  # noqa: E402
+from drumroll.inference.coordinates import SamplerCoordinates  # noqa: E402
 
 COORDINATE_CASES = [(model, variant) for model in ("pendulum", "small-angle", "powerlaw")
                     for variant in ("table1", "release", "thin-rod")]
@@ -223,12 +223,42 @@ def test_run_emcee_reports_parameters_not_sampler_coordinates():
     assert 1e-4 < np.median(jitter) < 1e-2  # seconds (the misfit of a power law), not a log
 
 
+@pytest.mark.parametrize("model", ["pendulum", "small-angle", "powerlaw"])
+def test_sampler_coordinates_of_a_sampled_t0(model):
+    """Student-t noise: T0 ↔ its non-centred offset round-trips, and log|det| (which now
+    depends on the jitter and every flight) matches a finite-difference Jacobian."""
+    lp = LogPosterior.build(_config("release"), model, _data(True), noise="student-t")
+    coords = SamplerCoordinates(lp.space, lp.data)
+    assert "t0" in lp.space.names
+    rng = np.random.default_rng(5)
+    x = lp.space.sample_prior(rng, 400)
+    x = x[np.isfinite(lp(x))][:20]
+    assert len(x) >= 10
+    z = coords.to_sampler(x)
+    back, log_det = coords.to_parameters(z)
+    np.testing.assert_allclose(back, x, rtol=1e-10, atol=1e-12)
+    for row, zr in enumerate(z):
+        step = 1e-6 * np.maximum(np.abs(zr), 1e-3)
+        jac = np.empty((zr.size, zr.size))
+        for j in range(zr.size):
+            hi, lo = zr.copy(), zr.copy()
+            hi[j] += step[j]
+            lo[j] -= step[j]
+            jac[:, j] = (coords.to_parameters(hi)[0][0] - coords.to_parameters(lo)[0][0]) \
+                / (2 * step[j])
+        np.testing.assert_allclose(log_det[row], np.log(abs(np.linalg.det(jac))), atol=1e-5)
+    target = SamplerTarget(lp, coords)(z)
+    np.testing.assert_allclose(target, lp(x) + log_det, rtol=1e-12)
+
+
 @pytest.mark.slow
-def test_sampler_coordinates_leave_the_posterior_unchanged():
-    """Plain DE in x and DE in z give the same posterior moments (pendulum, within MC error)."""
+@pytest.mark.parametrize("noise", ["gaussian", "student-t"])
+def test_sampler_coordinates_leave_the_posterior_unchanged(noise):
+    """Plain DE in x and DE in z give the same posterior moments (pendulum, within MC error);
+    under Student-t noise z includes T0's non-centred offset."""
     import emcee
 
-    lp = LogPosterior.build(_config("table1"), "pendulum", _data(False))
+    lp = LogPosterior.build(_config("table1"), "pendulum", _data(False), noise=noise)
     chain = run_emcee(lp, SamplerSettings(seed=3))
     z_samples = chain.samples.reshape(-1, lp.space.ndim)
     sampler = emcee.EnsembleSampler(32, lp.space.ndim, lp, vectorize=True,
@@ -242,3 +272,31 @@ def test_sampler_coordinates_leave_the_posterior_unchanged():
     sd = plain.std(axis=0)
     assert np.all(np.abs(z_samples.mean(axis=0) - plain.mean(axis=0)) < 5 * sd / np.sqrt(n_eff))
     assert np.all(np.abs(z_samples.std(axis=0) / sd - 1) < 5 / np.sqrt(n_eff))
+
+
+@pytest.mark.parametrize(("model", "variant"), COORDINATE_CASES)
+@pytest.mark.parametrize("noise", ["gaussian", "student-t"])
+def test_one_point_coordinates_equal_the_batch_map(model, variant, noise):
+    """Nested sampling's one-point z → x map equals the batch map, including points the
+    batch map sends to NaN (None) and a sampled T0's offset."""
+    lp = LogPosterior.build(_config(variant), model, _data(True), noise=noise)
+    coords = SamplerCoordinates(lp.space, lp.data)
+    rng = np.random.default_rng(9)
+    x = lp.space.sample_prior(rng, 300)
+    x = x[np.isfinite(lp(x))][:40]
+    z = coords.to_sampler(x)
+    z = np.concatenate([z, z[:20] * rng.uniform(0.5, 1.5, z[:20].shape)])  # some invalid
+    batch_x, batch_log_det = coords.to_parameters(z)
+    valid = np.isfinite(lp(batch_x))
+    assert 20 <= valid.sum() < len(z)
+    for row, ok in zip(range(len(z)), valid, strict=True):
+        one = coords.to_parameters_one(z[row])
+        if not ok:
+            assert one is None or not np.isfinite(lp(one[0][None]))[0]
+            continue
+        assert one is not None
+        np.testing.assert_allclose(one[0], batch_x[row], rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(one[1], batch_log_det[row], rtol=1e-12, atol=1e-12)
+        if one[2] is not None:
+            np.testing.assert_allclose(one[2], lp.space.impacts(batch_x[row:row + 1],
+                                                                lp.data.n_flights)[0][0])

@@ -15,6 +15,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,7 @@ from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.inference.comparison import LooResult, compare_models
 from drumroll.inference.evidence import Evidence, compute_evidence, importance_evidence
-from drumroll.inference.inference_data import EXPORT, build_inference_data
+from drumroll.inference.inference_data import EXPORT, build_inference_data, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain, run_emcee
@@ -123,18 +124,28 @@ def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings
     """
     log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
     started = time.perf_counter()
-    chain = run_emcee(log_posterior, replace(settings.sampler, seed=seed))
+    chain = run_emcee(log_posterior, replace(settings.sampler, seed=seed),
+                      reported=partial(reported_draws, log_posterior, seed))
     seconds = {"emcee": time.perf_counter() - started}
     evidence = check = None
     if settings.evidence:
         started = time.perf_counter()
-        evidence = compute_evidence(log_posterior, seed=seed, n_live=settings.live_points)
+        evidence = compute_evidence(log_posterior, chain.samples, seed=seed,
+                                    n_live=settings.live_points)
         seconds["dynesty"] = time.perf_counter() - started
         started = time.perf_counter()
         check = importance_evidence(log_posterior, chain.samples,
                                     np.random.default_rng(seed + 1))
         seconds["importance"] = time.perf_counter() - started
     return chain, evidence, check, seconds
+
+
+def reported_draws(log_posterior: LogPosterior, seed: int, draws: np.ndarray
+                   ) -> dict[str, np.ndarray]:
+    """Every quantity the report gives for ``draws``, exactly as :func:`estimate` computes them
+    (the same generator for T0's conditional draws), so that the sampler's stopping check
+    sees the reported numbers themselves."""
+    return parameter_draws(log_posterior, draws, np.random.default_rng(seed))[0]
 
 
 def evidence_summary(evidence: Evidence, check: Evidence | None) -> tuple[dict, str | None]:
@@ -231,6 +242,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     for model, seed, (chain, evidence, check, fit_seconds) in zip(models, seeds, outputs,
                                                                     strict=True):
         log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
+        # The same generator as reported_draws: the stopping check saw these very numbers.
         idata = build_inference_data(log_posterior, chain, np.random.default_rng(seed))
         fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, check,
                                fit_seconds)

@@ -1,5 +1,6 @@
-"""Bayesian evidence, for log Bayes factors between models: nested sampling (dynesty) and an
-independent importance-sampling cross-check from the emcee posterior.
+"""Bayesian evidence, for log Bayes factors between models: nested sampling (dynesty),
+repartitioned onto a reference density placed on the emcee posterior, and an
+importance-sampling cross-check.
 
 The likelihood and priors are exactly those emcee samples (:class:`LogPosterior`); with
 Gaussian noise T0 is marginalised over the same flat window in every model, so that constant
@@ -16,9 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import special
 
+from drumroll.inference.coordinates import SamplerCoordinates
 from drumroll.inference.posterior import LogPosterior
-from drumroll.inference.priors import LogUniform, Uniform
-from drumroll.inference.space import SamplerCoordinates
 
 #: dynesty's floor for points the physics forbids (it needs a finite number).
 _FLOOR = -1e300
@@ -44,74 +44,86 @@ class Evidence:
     ess: float | None = None
 
 
-#: Prior mass left outside the box of an unbounded prior, per tail (ln Z changes by less).
-BOX_TAIL = 1e-7
+#: Tail weight (degrees of freedom) and width (× the posterior's sd) of nested sampling's
+#: reference density: heavier-tailed and twice as wide as the posterior, so it covers it.
+REFERENCE_NU = 4.0
+REFERENCE_INFLATE = 2.0
 
 
-class BoxedProblem:
-    """The nested-sampling problem on a box where every prior's unit-cube map is affine.
+class ReferenceProblem:
+    """The nested-sampling problem repartitioned onto a reference density fitted to the
+    posterior (Chen, Feroz & Hobson 2019, "Bayesian posterior repartitioning").
 
-    Nested sampling only ever needs the product L(θ) π(θ): with any other reference density
-    π̃, Z = ∫ L π dθ = ∫ (L π / π̃) π̃ dθ ("posterior repartitioning"). Here π̃ is uniform on a
-    box in coordinates y where a uniform prior is uniform (y = x) and a log-uniform prior too
-    (y = ln x); a Normal-like prior gets the box [ppf(ε), ppf(1 − ε)] with ε =
-    :data:`BOX_TAIL` (all of a bounded support). The unit cube then maps onto y *linearly*,
-    instead of through Φ⁻¹: the pendulum's posterior is a needle ~1e-4 of the prior wide
-    whose bend under Φ⁻¹ defeated dynesty's random walks (ln Z 1–3 nats low on some seeds
-    with 200 live points), while on the box its contours stay nearly ellipsoidal. Only the
-    prior mass beyond the box, at most 2ε per parameter, is left out.
+    Nested sampling only ever needs the product L(θ) π(θ): for any proper density π̃,
+    Z = ∫ L π dθ = ∫ (L π / π̃) π̃ dθ. Here θ is the sampler coordinate z of
+    :class:`SamplerCoordinates` (so L π carries |det ∂x/∂z|), and π̃ is a product of Student-t
+    densities (ν = :data:`REFERENCE_NU`) in the whitened coordinates w = C⁻¹(z − m), with m
+    the posterior mean and C C^T :data:`REFERENCE_INFLATE`² times the posterior covariance:
+    z = m + C w, w_i = t_ν⁻¹(u_i), π̃(z) = Π t_ν(w_i) / |det C|. The integrand, and so Z, is
+    exactly the same as under the prior; what changes is the information H = KL(posterior ‖
+    reference), about 4–5 nats instead of the prior's 20–30, so dynesty needs ~5× fewer
+    iterations, and its random walks move in a space where the posterior is round. A poor
+    reference (say, an unconverged chain) costs efficiency, not correctness: the heavy tails
+    reach every point of the prior's support.
+
+    Parameters
+    ----------
+    log_posterior
+        The normalised log prior plus the log-likelihood.
+    posterior_samples
+        Draws from the posterior (any shape ending in ndim), e.g. ``Chain.samples``.
     """
 
-    def __init__(self, log_posterior: LogPosterior) -> None:
-        space = log_posterior.space
+    def __init__(self, log_posterior: LogPosterior, posterior_samples: NDArray,
+                 nu: float = REFERENCE_NU, inflate: float = REFERENCE_INFLATE) -> None:
         self.log_posterior = log_posterior
-        lower, width = np.empty(space.ndim), np.empty(space.ndim)
-        self.log_columns = np.zeros(space.ndim, bool)
-        for i, name in enumerate(space.names):
-            prior = space.priors[name]
-            if type(prior) is Uniform:
-                lower[i], upper = prior.support
-            elif type(prior) is LogUniform:
-                lower[i], upper = (math.log(v) for v in prior.support)
-                self.log_columns[i] = True
-            else:
-                lower[i], upper = float(prior.ppf(BOX_TAIL)), float(prior.ppf(1.0 - BOX_TAIL))
-            width[i] = upper - lower[i]
-        self.lower, self.width = lower, width
-        self.log_volume = float(np.log(width).sum())
-        self.any_log = bool(self.log_columns.any())
+        self.coordinates = SamplerCoordinates(log_posterior.space, log_posterior.data)
+        self.nu = nu
+        samples = np.asarray(posterior_samples, float)
+        z = self.coordinates.to_sampler(samples.reshape(-1, samples.shape[-1]))
+        z = z[np.all(np.isfinite(z), axis=1)]
+        self.ndim = z.shape[1]
+        self.mean = z.mean(axis=0)
+        self.chol = np.linalg.cholesky(np.atleast_2d(np.cov(z, rowvar=False)) * inflate**2)
+        self.log_norm = (self.ndim * (math.lgamma(0.5 * (nu + 1.0)) - math.lgamma(0.5 * nu)
+                                      - 0.5 * math.log(nu * math.pi))
+                         - float(np.log(np.diag(self.chol)).sum()))
 
     def prior_transform(self, u: NDArray) -> NDArray:
-        """The unit cube onto the box (y coordinates)."""
-        return self.lower + self.width * u
+        """The unit cube onto the whitened coordinates w (independent Student-t's)."""
+        return special.stdtrit(self.nu, u)
 
-    def parameters(self, y: NDArray) -> NDArray:
-        """x from y: exp of the log-uniform columns."""
-        if not self.any_log:
-            return y
-        x = np.array(y, float)
-        x[..., self.log_columns] = np.exp(y[..., self.log_columns])
-        return x
-
-    def log_likelihood(self, y: NDArray) -> float:
-        """ln(L π / π̃) at one y: log posterior + ln |dx/dy| + ln(box volume); finite floor."""
-        value = self.log_posterior(self.parameters(y))
-        if value == -math.inf:
+    def log_likelihood(self, w: NDArray) -> float:
+        """ln(L π |det ∂x/∂z| / π̃) at one w; a finite floor where the prior or the physics
+        forbids the point."""
+        mapped = self.coordinates.to_parameters_one(self.mean + self.chol @ w)
+        if mapped is None:
             return _FLOOR
-        if self.any_log:
-            value += float(y[self.log_columns].sum())
-        return value + self.log_volume
+        x, log_det, impacts = mapped
+        space = self.log_posterior.space
+        log_prior = space.log_prior_one(x)
+        if log_prior == -math.inf:
+            return _FLOOR
+        value = log_prior + self.log_posterior.log_likelihood_one(x, impacts) + log_det
+        if not math.isfinite(value):
+            return _FLOOR
+        log_reference = self.log_norm - 0.5 * (self.nu + 1.0) * float(
+            np.log1p(w * w * (1.0 / self.nu)).sum())
+        return value - log_reference
 
 
-def compute_evidence(log_posterior: LogPosterior, seed: int = 0, n_live: int = 200,
-                     dlogz: float = 0.5, sample: str = "rwalk", walks: int | None = None
-                     ) -> Evidence:
-    """ln Z = ln ∫ L(θ) π(θ) dθ by static nested sampling (dynesty) on :class:`BoxedProblem`.
+def compute_evidence(log_posterior: LogPosterior, posterior_samples: NDArray, seed: int = 0,
+                     n_live: int = 200, dlogz: float = 0.5, sample: str = "rwalk",
+                     walks: int | None = None) -> Evidence:
+    """ln Z = ln ∫ L(θ) π(θ) dθ by static nested sampling (dynesty) on
+    :class:`ReferenceProblem`.
 
     Parameters
     ----------
     log_posterior
         Supplies the prior, the likelihood (its one-point path) and the dimension.
+    posterior_samples
+        Posterior draws (emcee's) that place the reference density.
     seed
         Seed of dynesty's generator.
     n_live
@@ -119,14 +131,14 @@ def compute_evidence(log_posterior: LogPosterior, seed: int = 0, n_live: int = 2
     dlogz
         Stop when the evidence still in the live points is below this (ln Z units); dynesty
         then adds the live points' own contribution, so 0.5 changes ln Z by much less than
-        its error (and saves ~n_live × ln 5 iterations over 0.1).
+        its error.
     sample, walks
         dynesty's sampling method and random-walk length (dynesty's default 20 + ndim when
         None); multi-ellipsoid bounds.
     """
-    problem = BoxedProblem(log_posterior)
+    problem = ReferenceProblem(log_posterior, posterior_samples)
     sampler = dynesty.NestedSampler(problem.log_likelihood, problem.prior_transform,
-                                    log_posterior.space.ndim, nlive=n_live, bound="multi",
+                                    problem.ndim, nlive=n_live, bound="multi",
                                     sample=sample, walks=walks,
                                     rstate=np.random.default_rng(seed))
     sampler.run_nested(dlogz=dlogz, print_progress=False)
@@ -140,7 +152,8 @@ def importance_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
                         inflate: float = 1.2, batch: int = 4096) -> Evidence:
     """ln Z by importance sampling from a Student-t fitted to posterior samples.
 
-    A cross-check of :func:`compute_evidence` that shares nothing with it but the posterior:
+    A cross-check of :func:`compute_evidence` by another algorithm (both place their
+    density on the posterior draws, but nested sampling's result does not depend on how well):
     the emcee draws are mapped to :class:`SamplerCoordinates` (where the posterior is nearly
     Gaussian), a multivariate Student-t with ``nu`` degrees of freedom, their mean and
     ``inflate``² times their covariance is fitted (heavier tails than the posterior, so the
@@ -168,7 +181,8 @@ def importance_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
     samples = np.asarray(posterior_samples, float)
     samples = samples.reshape(-1, samples.shape[-1])
     space = getattr(log_posterior, "space", None)
-    coordinates = SamplerCoordinates(space) if space is not None else None
+    coordinates = (SamplerCoordinates(space, getattr(log_posterior, "data", None))
+                   if space is not None else None)
     z = coordinates.to_sampler(samples) if coordinates is not None else samples
     z = z[np.all(np.isfinite(z), axis=1)]
     ndim = z.shape[1]

@@ -22,6 +22,8 @@ from drumroll.inference.priors import Fixed, Prior, Uniform
 from drumroll.inference.space import ParameterSpace
 
 NOISE_MODELS = ("gaussian", "student-t")
+#: Impact times after the first, ``(batch, N + 1)``, and where they are valid, ``(batch,)``.
+Impacts = tuple[NDArray, NDArray]
 
 
 @dataclass(frozen=True)
@@ -64,16 +66,18 @@ class LogPosterior:
         object.__setattr__(self, "_jitter_column",
                            names.index("jitter") if "jitter" in names else None)
 
-    def log_likelihood(self, x: NDArray) -> NDArray:
+    def log_likelihood(self, x: NDArray, impacts: Impacts | None = None) -> NDArray:
         """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise); −inf where
         the physics forbids the point.
 
         This is the lean path (:meth:`ParameterSpace.impacts` and
         :func:`~drumroll.inference.likelihood.gaussian_marginal_lean`); the general one,
         through :class:`~drumroll.physics.Bounces`, is :meth:`log_likelihood_reference`.
+        ``impacts``, the rows' ``(impact times, validity)`` when the caller already has them,
+        saves running the forward model again.
         """
         x = np.atleast_2d(np.asarray(x, float))
-        impacts, valid = self.space.impacts(x, self.data.n_flights)
+        impacts, valid = impacts or self.space.impacts(x, self.data.n_flights)
         with np.errstate(all="ignore"):
             if self.noise == "gaussian":
                 i = self._jitter_column
@@ -86,9 +90,11 @@ class LogPosterior:
         ok = valid & np.isfinite(out)
         return out if ok.all() else np.where(ok, out, -np.inf)
 
-    def log_likelihood_one(self, x: NDArray) -> float:
-        """The log-likelihood of one point ``(ndim,)`` as a float: nested sampling's path."""
-        impacts = self.space.impacts_one(x, self.data.n_flights)
+    def log_likelihood_one(self, x: NDArray, impacts: NDArray | None = None) -> float:
+        """The log-likelihood of one point ``(ndim,)`` as a float: nested sampling's path.
+        ``impacts`` (from :meth:`ParameterSpace.impacts_one`) saves recomputing them."""
+        if impacts is None:
+            impacts = self.space.impacts_one(x, self.data.n_flights)
         if impacts is None:
             return -math.inf
         i = self._jitter_column
@@ -116,7 +122,9 @@ class LogPosterior:
             return gaussian_marginal(self.data, impacts, v["jitter"])[0]
         return student_t(self.data, impacts, v["jitter"], v["t0"], v["nu"])
 
-    def __call__(self, x: NDArray) -> NDArray | float:
+    def __call__(self, x: NDArray, impacts: Impacts | None = None) -> NDArray | float:
+        """Log posterior of one point ``(ndim,)`` (a float) or of every row of ``x``;
+        ``impacts`` as in :meth:`log_likelihood`."""
         x = np.asarray(x, float)
         if x.ndim == 1:  # one point: the float path (nested sampling, optimisers)
             log_prior = self.space.log_prior_one(x)
@@ -125,9 +133,10 @@ class LogPosterior:
         out = self.space.log_prior(x)
         inside = np.isfinite(out)
         if inside.all():
-            out = out + self.log_likelihood(x)
+            out = out + self.log_likelihood(x, impacts)
         elif inside.any():
-            out[inside] += self.log_likelihood(x[inside])
+            part = None if impacts is None else (impacts[0][inside], impacts[1][inside])
+            out[inside] += self.log_likelihood(x[inside], part)
         return out
 
     def reference(self, x: NDArray) -> NDArray:

@@ -8,6 +8,7 @@ log prior and, for nested sampling, the unit-cube transform. Everything is SI in
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -236,13 +237,7 @@ class ParameterSpace:
         call; only the N flights are arrays. Same formulas as :meth:`impacts`, and tested
         against the full forward model like it.
         """
-        row = x.tolist()
-        col, fixed = self._column, self._fixed
-
-        def value(name: str) -> float:
-            i = col.get(name)
-            return row[i] if i is not None else fixed[name]
-
+        value = self.value_of(x.tolist())
         alpha = value("alpha")
         if not 0.0 < alpha <= 1.0:
             return None
@@ -260,23 +255,40 @@ class ParameterSpace:
         np.cumsum(flights, out=impacts[1:])
         return impacts
 
+    def value_of(self, row: list[float]) -> Callable[[str], float]:
+        """A parameter's value by name for one point ``row`` (sampled or fixed), as a float."""
+        col, fixed = self._column, self._fixed
+
+        def value(name: str) -> float:
+            i = col.get(name)
+            return row[i] if i is not None else fixed[name]
+
+        return value
+
+    def stick_one(self, value: Callable[[str], float]) -> tuple[float, float, float] | None:
+        """Total length, centre of mass and k_O² (eqs. 12–16) of one point's stick about its
+        pivot, as floats; ``value`` gives a parameter's value by name. ``None`` for a stick
+        with no positive mass."""
+        d, l1 = value("pivot"), value("stick_length")
+        if self.config.stick.shape == "thin-rod":
+            return l1, 0.5 * l1, l1 * l1 / 3.0 + d * d - l1 * d
+        l2, r = value("stick_tip"), value("stick_radius")
+        weight = 3.0 * l1 + l2
+        if not (math.isfinite(weight) and weight > 0.0):
+            return None
+        cylinder = 3.0 * l1 * (0.25 * (r * r + l1 * l1 / 3.0) + (0.5 * l1 - d) ** 2)
+        cone = l2 * (3.0 / 80.0 * (4.0 * r * r + l2 * l2) + (l1 - d + 0.25 * l2) ** 2)
+        return (l1 + l2, (6.0 * l1 * l1 + l2 * (4.0 * l1 + l2)) / (4.0 * weight),
+                (cylinder + cone) / weight)
+
     def _pendulum_flights_one(self, value, alpha: float, k: NDArray) -> NDArray | None:
         """Flights of one point of a pendulum model, or ``None`` where it is invalid."""
-        d, h, l1 = value("pivot"), value("height"), value("stick_length")
+        d, h = value("pivot"), value("height")
         v0, theta0 = value("release_speed"), value("release_angle")
-        if self.config.stick.shape == "thin-rod":
-            total_length, centre_of_mass = l1, 0.5 * l1
-            k_o_squared = l1 * l1 / 3.0 + d * d - l1 * d
-        else:
-            l2, r = value("stick_tip"), value("stick_radius")
-            weight = 3.0 * l1 + l2
-            if not (math.isfinite(weight) and weight > 0.0):
-                return None
-            cylinder = 3.0 * l1 * (0.25 * (r * r + l1 * l1 / 3.0) + (0.5 * l1 - d) ** 2)
-            cone = l2 * (3.0 / 80.0 * (4.0 * r * r + l2 * l2) + (l1 - d + 0.25 * l2) ** 2)
-            total_length = l1 + l2
-            centre_of_mass = (6.0 * l1 * l1 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
-            k_o_squared = (cylinder + cone) / weight
+        stick = self.stick_one(value)
+        if stick is None:
+            return None
+        total_length, centre_of_mass, k_o_squared = stick
         arm = total_length - d
         if not (math.isfinite(alpha + d + h + v0 + theta0 + total_length + centre_of_mass
                               + k_o_squared)
@@ -305,89 +317,3 @@ class ParameterSpace:
         m = s_c + excess
         sin2_chi = np.minimum(excess / (m * c_c), 1.0)
         return ellipkinc(np.arcsin(np.sqrt(sin2_chi)), m) * (2.0 / math.sqrt(gamma))
-
-
-@dataclass(frozen=True)
-class SamplerCoordinates:
-    """Better-conditioned coordinates z for MCMC, an exact bijection of the parameters x.
-
-    The moves emcee uses are affine invariant, so linear correlations cost nothing; what slows
-    them is curvature. Two maps remove the worst of it, each leaving the other columns alone:
-
-    * ``height`` → q = ω_C/γ of the model's own linearised kinematics,
-      q² = (ω0² + 2γ(θ_C − θ0)) / γ², with θ_C = asin(h / (L − d)) (pendulum) or
-      h / (L − d) (small-angle). The data pin down t_B ≈ 2q, which in (d, h) is a curved ridge
-      (physics.md) and in (d, q) nearly a straight line. Inverse:
-      θ_C = θ0 + (γ²q² − ω0²)/(2γ), h = (L − d) sin θ_C (or (L − d) θ_C), with
-      ∂h/∂q = (L − d) cos θ_C γ q (or (L − d) γ q).
-    * the scale parameters ``jitter`` and ``t_b`` → their logarithms (∂x/∂z = x).
-
-    The density of z is p(x(z)) |det ∂x/∂z|; since only one column at a time depends on the
-    others, the Jacobian is triangular and its log determinant is the sum of the log
-    derivatives above. z points outside the image of the valid parameter set map to NaN
-    (log posterior −inf), so the map is a bijection between the valid sets.
-    """
-
-    space: ParameterSpace
-
-    def __post_init__(self) -> None:
-        names = self.space.names
-        logs = tuple(names.index(n) for n in ("jitter", "t_b") if n in names)
-        height = (names.index("height") if "height" in names
-                  and self.space.model in ("pendulum", "small-angle") else None)
-        object.__setattr__(self, "_logs", logs)
-        object.__setattr__(self, "_height", height)
-
-    def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """γ, L − d, ω0 and θ0 per row (only the columns other than h are used)."""
-        space = self.space
-        v = space._value
-        d, l1 = v(x, "pivot"), v(x, "stick_length")
-        total_length, centre_of_mass, k_o_squared = mass_properties_squared(
-            space.config.stick.shape, l1, v(x, "stick_tip"), v(x, "stick_radius"), d)
-        gamma = space.config.gravity * (centre_of_mass - d) / k_o_squared
-        arm = total_length - d
-        ones = np.ones(x.shape[0])
-        return gamma * ones, arm * ones, v(x, "release_speed") / arm * ones, \
-            v(x, "release_angle") * ones
-
-    def to_sampler(self, x: NDArray) -> NDArray:
-        """z of each row of the parameters ``x`` (NaN where x is invalid)."""
-        x = np.atleast_2d(np.asarray(x, float))
-        z = x.copy()
-        with np.errstate(all="ignore"):
-            for i in self._logs:
-                z[:, i] = np.log(x[:, i])
-            if self._height is not None:
-                gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
-                ratio = x[:, self._height] / arm
-                theta_c = np.arcsin(ratio) if self.space.model == "pendulum" else ratio
-                z[:, self._height] = np.sqrt(omega0**2 + 2.0 * gamma * (theta_c - theta0)) / gamma
-        return z
-
-    def to_parameters(self, z: NDArray) -> tuple[NDArray, NDArray]:
-        """The parameters x of each row of ``z``, and log |det ∂x/∂z|."""
-        z = np.atleast_2d(np.asarray(z, float))
-        x = z.copy()
-        log_det = np.zeros(z.shape[0])
-        with np.errstate(all="ignore"):
-            for i in self._logs:
-                x[:, i] = np.exp(z[:, i])
-                log_det += z[:, i]
-            if self._height is not None:
-                gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
-                q = z[:, self._height]
-                theta_c = theta0 + (gamma * gamma * q * q - omega0 * omega0) / (2.0 * gamma)
-                ok = (q > 0.0) & (gamma * q > omega0) & (theta_c > 0.0) & (gamma > 0.0)
-                if self.space.model == "pendulum":
-                    ok &= theta_c < 0.5 * np.pi
-                    x[:, self._height] = arm * np.sin(theta_c)
-                    log_det += np.log(arm * np.cos(theta_c) * gamma * q)
-                else:
-                    x[:, self._height] = arm * theta_c
-                    log_det += np.log(arm * gamma * q)
-                if not ok.all():
-                    x[~ok, self._height] = np.nan
-                    log_det[~ok] = 0.0
-        return x, log_det
-

@@ -78,7 +78,7 @@ class JointPosterior:
     """
 
     def __init__(self, parts: list[Any], labels: list[str], shared: tuple[str, ...]) -> None:
-        from drumroll.inference.space import SamplerCoordinates
+        from drumroll.inference.coordinates import SamplerCoordinates
 
         self.parts, self.labels, self.shared = parts, labels, shared
         self.coordinates = [SamplerCoordinates(p.space) for p in parts]
