@@ -294,3 +294,28 @@ def test_malformed_onset_files_name_the_line(tmp_path, text, where):
     p.write_text(text)
     with pytest.raises(DrumrollError, match=where):
         read_onsets(p)
+
+
+def test_sequence_law_ignores_a_mistimed_onset():
+    from drumroll.onsets.sequence import fit_sequence
+
+    times = 0.3 + np.concatenate(([0.0], np.cumsum(0.2 * 0.88 ** np.arange(1, 16))))
+    measured = times + 1e-4 * np.random.default_rng(0).standard_normal(times.size)
+    measured[12] += 4e-3  # a faint bounce found where its sound grows, not where it starts
+    law = fit_sequence(measured, np.full(times.size, 1e-4))
+    assert abs(law.time_s[12] - times[12]) < 3e-4
+    assert np.all(law.sd_s < 5e-4)
+    assert fit_sequence(measured[:4], np.full(4, 1e-4)) is None  # too few to fit a law
+
+
+def test_prior_decides_only_where_the_waveform_does_not():
+    from drumroll.onsets.refine import Prior, aic_onset
+
+    rng = np.random.default_rng(1)
+    sharp = np.concatenate((rng.standard_normal(400), 10 * rng.standard_normal(400)))
+    prior = Prior(mean=300.0, sd=5.0, outlier=0.05, width=400)
+    assert abs(aic_onset(sharp, 200, 600, prior=prior)[0] - 400) <= 2  # likelihood wins
+    faint = np.concatenate((rng.standard_normal(400), 1.1 * rng.standard_normal(400)))
+    k, spread = aic_onset(faint, 200, 600, prior=prior)
+    assert abs(k - 300) <= 15  # no clear start: the prior places it
+    assert spread < aic_onset(faint, 200, 600)[1]

@@ -22,7 +22,7 @@ from drumroll.onsets.odf import (
     wide_filter,
 )
 from drumroll.onsets.peaks import local_maxima, local_robust_z
-from drumroll.onsets.refine import Refined, refine_onset
+from drumroll.onsets.refine import Prior, Refined, refine_onset
 
 #: Energy floor per sample (about -140 dBFS) so digital silence has a defined ratio.
 FLOOR_PER_SAMPLE = 1e-14
@@ -254,11 +254,13 @@ class CandidateStream:
 
 def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
                   ba: tuple[np.ndarray, np.ndarray], settle: int, *, pre: int, post: int,
-                  search: int, search_after: int | None = None, level: int = 0) -> Refined:
+                  search: int, search_after: int | None = None, level: int = 0,
+                  prior: Prior | None = None) -> Refined:
     """Refine an onset near absolute sample ``guess`` of raw samples ``buf`` (``buf[0]`` is
     absolute sample ``buf0``): the wide high-pass ``ba`` is run from rest ``settle`` samples
     before the refinement window. Returns the refined onset with an absolute ``sample`` and,
-    if ``level`` > 0, the peak of the high-passed sound over ``level`` samples from it."""
+    if ``level`` > 0, the peak of the high-passed sound over ``level`` samples from it.
+    ``prior`` (optional) is in absolute samples."""
     a = max(guess - pre - settle, 0)
     after = search if search_after is None else search_after
     b = guess + max(post, after + level)
@@ -270,7 +272,8 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
         x = np.concatenate((x, np.zeros(b - a - x.size)))
     y = signal.lfilter(ba[0], ba[1], x)
     r = refine_onset(y, guess - a, sample_rate, pre=pre, post=post, search=search,
-                     search_after=search_after)
+                     search_after=search_after,
+                     prior=None if prior is None else prior.shifted(-a))
     peak = float(np.abs(y[r.sample: r.sample + level]).max()) if level > 0 else float("nan")
     return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s, peak)
 

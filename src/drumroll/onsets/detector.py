@@ -13,6 +13,7 @@ from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
 from drumroll.onsets.follow import Excerpt, FollowParams, follow
 from drumroll.onsets.odf import OdfParams
+from drumroll.onsets.sequence import retime
 from drumroll.onsets.table import OnsetTable
 from drumroll.onsets.tracking import TrackParams, explain, track
 
@@ -114,8 +115,10 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
         raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
                          "(a single hit, noise or silence?)")
     # Three tracked onsets already predict a fourth: the targeted search may supply it.
-    cols = until_a_flight_grows(*_extend(c.subset(tr.index), p, odf, rate, excerpt, total),
-                                keep_at_least=p.min_onsets)
+    cols, ex = _extend(c.subset(tr.index), p, odf, rate, excerpt, total)
+    if ex is not None:  # each onset timed again with the whole roll's law as its prior
+        cols = retime(cols[0], cols[3], ex.x, ex.start, rate, ex.ba, ex.settle) or cols
+    cols = until_a_flight_grows(*cols, keep_at_least=p.min_onsets)
     if cols[0].size < p.min_onsets:
         raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
                          f"row, a drumroll needs at least {p.min_onsets}")
@@ -160,9 +163,11 @@ _SAME_ONSET_S = 0.001
 
 
 def _extend(kept: Candidates, p: TrackParams, odf: OdfParams, rate: int,
-            excerpt: Callable[[int, int], np.ndarray], total: int) -> tuple[np.ndarray, ...]:
+            excerpt: Callable[[int, int], np.ndarray], total: int
+            ) -> tuple[tuple[np.ndarray, ...], Excerpt | None]:
     """The tracked roll, followed past its last onset by the targeted search of
-    :mod:`.follow`. Returns time, amplitude, SNR and sigma columns."""
+    :mod:`.follow`. Returns time, amplitude, SNR and sigma columns, and the audio around
+    the roll (None if the roll was too short to follow)."""
     # Trailing onsets quieter than what they land in were carried by their timing alone;
     # their start cannot be told to the sample, so the roll is reported up to the last one
     # that can (but never below the fewest onsets that make a roll).
@@ -172,7 +177,7 @@ def _extend(kept: Candidates, p: TrackParams, odf: OdfParams, rate: int,
     kept = kept.subset(np.arange(keep))
     cols = (kept.time_s, kept.amplitude, kept.snr_db, kept.sigma_s)
     if len(kept) < 3:
-        return cols
+        return cols, None
     t = kept.time_s
     flights = np.diff(t)
     ratio = float(np.clip(flights[-1] / flights[-2], p.min_ratio, 0.98))
@@ -184,7 +189,7 @@ def _extend(kept: Candidates, p: TrackParams, odf: OdfParams, rate: int,
     found = follow(list(t), list(kept.sigma_s), ex, fp, p.min_interval_s, end_s)
     return tuple(np.concatenate((b, np.asarray(f, dtype=float)))
                  for b, f in zip(cols, (found.time_s, found.amplitude, found.snr_db,
-                                        found.sigma_s), strict=True))
+                                        found.sigma_s), strict=True)), ex
 
 
 #: Audio read either side of the roll for the detection function's statistics.

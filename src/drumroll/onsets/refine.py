@@ -66,7 +66,32 @@ class Refined:
 EQUIVALENT = 2.0
 
 
-def aic_onset(x: np.ndarray, lo: int, hi: int, dispersion: float = 1.0) -> tuple[int, float]:
+@dataclass(frozen=True)
+class Prior:
+    """Where an onset is expected before its sound is looked at: a Gaussian about ``mean``
+    with standard deviation ``sd`` (samples), mixed with probability ``outlier`` with a
+    uniform density over the ``width`` samples searched, so that a clear onset away from
+    the expectation is still found where it is (a robust prior)."""
+
+    mean: float
+    sd: float
+    outlier: float
+    width: float
+
+    def shifted(self, by: float) -> Prior:
+        """The same prior on an index ``by`` samples further on."""
+        return Prior(self.mean + by, self.sd, self.outlier, self.width)
+
+    def log_density(self, k: np.ndarray) -> np.ndarray:
+        """Log prior density at sample indices ``k``."""
+        sd = max(self.sd, 1.0)
+        z = (k - self.mean) / sd
+        gauss = np.log1p(-self.outlier) - 0.5 * z * z - np.log(sd * np.sqrt(2.0 * np.pi))
+        return np.logaddexp(gauss, np.log(self.outlier / max(self.width, 1.0)))
+
+
+def aic_onset(x: np.ndarray, lo: int, hi: int, dispersion: float = 1.0,
+              prior: Prior | None = None) -> tuple[int, float]:
     """Index in ``[lo, hi)`` of ``x`` minimising the two-variance AIC (variance stepping up),
     and the standard deviation (samples) of the change point's likelihood.
 
@@ -76,7 +101,9 @@ def aic_onset(x: np.ndarray, lo: int, hi: int, dispersion: float = 1.0) -> tuple
     the data support: narrow for a sharp step out of quiet, wide where the noise before and
     the sound after are hard to tell apart. ``dispersion`` (>= 1) tempers that likelihood
     when the noise is less regular than Gaussian white noise (see :func:`dispersion`). Falls
-    back to the unrestricted minimum when no split in range has the variance rising.
+    back to the unrestricted minimum when no split in range has the variance rising. With a
+    ``prior`` on where the onset is (:class:`Prior`, in samples of ``x``), the split and its
+    spread are those of the posterior, likelihood times prior.
     """
     n = x.size
     e = np.concatenate(([0.0], np.cumsum(x * x)))
@@ -90,12 +117,17 @@ def aic_onset(x: np.ndarray, lo: int, hi: int, dispersion: float = 1.0) -> tuple
     rising = v2 > v1
     if rising.any():
         aic = np.where(rising, aic, np.inf)
-    best = int(np.argmin(aic))
-    delta = (aic - aic[best]) / max(dispersion, 1.0)
+    # Minus twice the log posterior (up to a constant): the tempered AIC, less twice the
+    # log prior.
+    cost = aic / max(dispersion, 1.0)
+    if prior is not None:
+        cost = cost - 2.0 * prior.log_density(k)
+    best = int(np.argmin(cost))
+    delta = cost - cost[best]
     # The sound starts at the first split as good as the best: later steps of similar weight
     # are the same impact building up (drum modes, snare wires), not its start.
     best = int(np.flatnonzero(delta <= EQUIVALENT)[0])
-    weight = np.exp(-0.5 * (aic - aic[best]) / max(dispersion, 1.0))
+    weight = np.exp(-0.5 * (cost - cost[best]))
     spread = float(np.sqrt(np.sum(weight * (k - k[best]) ** 2) / np.sum(weight)))
     return int(k[best]), spread
 
@@ -143,7 +175,8 @@ def whiten(x: np.ndarray, fit: np.ndarray, order: int) -> np.ndarray:
 
 
 def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post: int,
-                 search: int, search_after: int | None = None, order: int = 16) -> Refined:
+                 search: int, search_after: int | None = None, order: int = 16,
+                 prior: Prior | None = None) -> Refined:
     """Refine an onset near ``y[guess]`` on the high-passed signal ``y``.
 
     Parameters
@@ -162,6 +195,9 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
     order
         Order of the whitening predictor fitted to the ``pre - search`` samples before the
         search region (0: no whitening).
+    prior
+        Optional prior on the onset (sample indices into ``y``), e.g. where the bounce
+        sequence puts it.
     """
     start = guess - pre
     lo_pad = max(0, -start)
@@ -174,7 +210,8 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
         x[:order] = 0.0  # no full predictor history yet
     after = search if search_after is None else search_after
     fit_end = max(pre - search, order + 2)
-    k, spread = aic_onset(x, fit_end, pre + after + 1, dispersion(x[order:fit_end]))
+    k, spread = aic_onset(x, fit_end, pre + after + 1, dispersion(x[order:fit_end]),
+                          None if prior is None else prior.shifted(-start))
     # Timing precision is set by the whitened signal (what the split saw); the amplitude a
     # user reads is the click's own.
     before = x[order:k] if k > order + 1 else x[:k]

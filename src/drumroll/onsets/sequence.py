@@ -1,0 +1,167 @@
+"""Timing each bounce with the whole roll's help: the sequence as a prior on every onset.
+
+A faint bounce late in a roll lands in the ringing and snare-wire buzz of the louder bounces
+before it. Its sound is detected, but its first milliseconds can be weaker than what they
+land in: the change point of :mod:`.refine` then finds where the bounce's sound *grows*
+(its own wires and modes building up, a few ms in), not where it starts, and on the
+waveform alone the start cannot be told from the later step.
+
+The roll itself says where the bounce must be. The flight times of a bouncer follow a smooth
+law, close to geometric with a slowly changing ratio, so a robust fit of
+
+    t_j = t_0 + sum_{i < j} exp(a + b i + c i^2)
+
+to all the onsets (Cauchy loss: mistimed onsets hardly pull on it) predicts each onset,
+with a scatter measured on the roll itself: the robust spread of the onsets about the fit.
+That prediction is the prior of a second change-point search (:class:`~.refine.Prior`),
+and each onset is placed at its posterior. Where the sound has a clear start the likelihood
+is sharp and the prior does not matter; where it has none the prior decides; where the roll
+is irregular the measured scatter is large and the prior is weak. The prior is robust (a
+Gaussian mixed with a uniform), so a clear onset off the fitted law stays where it is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from drumroll.onsets.candidates import refine_window
+from drumroll.onsets.refine import Prior
+
+#: MAD to Gaussian standard deviation.
+_MAD_TO_SIGMA = 1.4826
+
+
+@dataclass(frozen=True)
+class SequenceFit:
+    """The smooth law fitted to a roll's onsets.
+
+    Attributes
+    ----------
+    time_s
+        The law's time for every onset (seconds).
+    sd_s
+        Standard deviation of an onset about the law: the roll's measured scatter and the
+        fit's own uncertainty at that onset (seconds).
+    """
+
+    time_s: np.ndarray
+    sd_s: np.ndarray
+
+
+def _law(p: np.ndarray, n: int, quadratic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Onset times of the law with parameters ``p`` (t0, a, b[, c]) and their Jacobian."""
+    i = np.arange(n - 1, dtype=float)
+    c = p[3] if quadratic else 0.0
+    f = np.exp(p[1] + p[2] * i + c * i * i)
+    t = p[0] + np.concatenate(([0.0], np.cumsum(f)))
+    cols = [np.ones(n), t - p[0], np.concatenate(([0.0], np.cumsum(i * f)))]
+    if quadratic:
+        cols.append(np.concatenate(([0.0], np.cumsum(i * i * f))))
+    return t, np.stack(cols, axis=1)
+
+
+def _robust_fit(times: np.ndarray, weight: np.ndarray, p0: list[float], quadratic: bool
+                ) -> tuple[np.ndarray, float]:
+    """Cauchy-loss fit of the law; returns the parameters and the loss (half the Cauchy
+    deviance of the residuals scaled by ``1 / weight``)."""
+    n = times.size
+
+    def resid(p):
+        return (_law(p, n, quadratic)[0] - times) / weight
+
+    def jac(p):
+        return _law(p, n, quadratic)[1] / weight[:, None]
+
+    sol = optimize.least_squares(resid, p0, jac=jac, loss="cauchy", method="trf")
+    return sol.x, float(sol.cost)
+
+
+def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
+    """Robust fit of the flight law to onset ``times`` with timing uncertainties ``sigmas``.
+
+    Each onset's residual is scaled by its own uncertainty combined with the roll's scatter
+    (measured as the MAD of the residuals, corrected for the parameters fitted); the loss is
+    Cauchy's, so a mistimed onset hardly pulls. The drift of the ratio (``c``) is kept only
+    when it pays for itself by the Bayesian information criterion on the Cauchy deviance.
+    Returns None for fewer than five onsets (a law of three or four parameters needs some
+    onsets to spare) or flights that do not shrink.
+    """
+    n = times.size
+    flights = np.diff(times)
+    if n < 5 or np.any(flights <= 0):
+        return None
+    ratio = float(np.median(flights[1:] / flights[:-1]))
+    if not 0.0 < ratio < 1.5:
+        return None
+    sig2 = np.square(np.maximum(sigmas, 1e-6))
+    scatter = 0.0
+    p = np.array([times[0], np.log(flights[0]), np.log(ratio)])
+    quadratic = False
+    for _ in range(2):  # the scatter weights the fit, the fit sets the scatter
+        weight = np.sqrt(sig2 + scatter**2)
+        p, cost = _robust_fit(times, weight, list(p[:3]), False)
+        quadratic = False
+        if n >= 8:
+            p2, cost2 = _robust_fit(times, weight, [*p[:3], 0.0], True)
+            if 2.0 * (cost - cost2) > np.log(n):
+                p, quadratic = p2, True
+        law, jmat = _law(p, n, quadratic)
+        r = times - law
+        dof = max(n - p.size, 1)
+        scatter = _MAD_TO_SIGMA * float(np.median(np.abs(r))) * np.sqrt(n / dof)
+    scatter = max(scatter, float(np.sqrt(np.median(sig2))))
+    # The fit's own uncertainty at each onset, from the linearised weighted least squares.
+    jw = jmat / np.sqrt(sig2 + scatter**2)[:, None]
+    try:
+        cov = np.linalg.inv(jw.T @ jw)
+    except np.linalg.LinAlgError:
+        return None
+    var_fit = np.einsum("ij,jk,ik->i", jmat, cov, jmat)
+    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)))
+
+
+def retime(times: np.ndarray, sigmas: np.ndarray, x: np.ndarray, start: int,
+           sample_rate: int, ba: tuple[np.ndarray, np.ndarray], settle: int, *,
+           outlier: float = 0.05) -> tuple[np.ndarray, ...] | None:
+    """Place every onset at its posterior given the roll's law (see the module docstring).
+
+    Parameters
+    ----------
+    times, sigmas
+        The roll's onsets (seconds, absolute) and their timing uncertainties.
+    x, start
+        Raw samples around the roll; ``x[0]`` is absolute sample ``start``.
+    sample_rate, ba, settle
+        As :func:`~.candidates.refine_window` needs them (the wide high-pass, its settling).
+    outlier
+        Prior probability that a bounce is off the law by more than its scatter.
+
+    Returns
+    -------
+    tuple of numpy.ndarray or None
+        Time, amplitude, SNR and sigma columns, or None when no law could be fitted.
+    """
+    law = fit_sequence(times, sigmas)
+    if law is None:
+        return None
+    sr = sample_rate
+    margin = round(0.001 * sr)
+    out = []
+    for j, (t, mu, sd) in enumerate(zip(times, law.time_s, law.sd_s, strict=True)):
+        reach = max(4.0 * sd * sr, margin)
+        lo = round(min(t, mu) * sr - reach)
+        hi = round(max(t, mu) * sr + reach)
+        # The whitening reference: up to 6 ms before the searched stretch, never reaching
+        # back past the middle of the flight before it.
+        flight = times[j] - times[j - 1] if j else 0.05
+        fit = max(64, min(round(0.006 * sr), round(0.5 * flight * sr) - (hi - lo) // 2))
+        guess = (lo + hi) // 2
+        prior = Prior(mean=mu * sr, sd=sd * sr, outlier=outlier, width=hi - lo)
+        r = refine_window(x, start, guess, sr, ba, settle, pre=guess - lo + fit,
+                          post=2 * margin, search=guess - lo, search_after=hi - guess,
+                          prior=prior)
+        out.append((r.sample / sr, r.amplitude, r.snr_db, r.sigma_s))
+    return tuple(np.asarray(col, dtype=float) for col in zip(*out, strict=True))
