@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import gammaln
 
 
 @dataclass(frozen=True)
@@ -68,26 +69,34 @@ EQUIVALENT = 2.0
 
 @dataclass(frozen=True)
 class Prior:
-    """Where an onset is expected before its sound is looked at: a Gaussian about ``mean``
-    with standard deviation ``sd`` (samples), mixed with probability ``outlier`` with a
-    uniform density over the ``width`` samples searched, so that a clear onset away from
-    the expectation is still found where it is (a robust prior)."""
+    """Where an onset is expected before its sound is looked at: a Student t about ``mean``
+    with scale ``sd`` (samples) and ``dof`` degrees of freedom (the predictive of a scatter
+    estimated from that many residuals), mixed with probability ``outlier`` with a uniform
+    density over the ``width`` samples searched, so that a clear onset away from the
+    expectation is still found where it is (a robust prior)."""
 
     mean: float
     sd: float
     outlier: float
     width: float
+    dof: float = np.inf
 
     def shifted(self, by: float) -> Prior:
         """The same prior on an index ``by`` samples further on."""
-        return Prior(self.mean + by, self.sd, self.outlier, self.width)
+        return Prior(self.mean + by, self.sd, self.outlier, self.width, self.dof)
 
     def log_density(self, k: np.ndarray) -> np.ndarray:
         """Log prior density at sample indices ``k``."""
         sd = max(self.sd, 1.0)
         z = (k - self.mean) / sd
-        gauss = np.log1p(-self.outlier) - 0.5 * z * z - np.log(sd * np.sqrt(2.0 * np.pi))
-        return np.logaddexp(gauss, np.log(self.outlier / max(self.width, 1.0)))
+        if np.isfinite(self.dof):
+            nu = max(self.dof, 1.0)
+            core = (gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * np.log(nu * np.pi)
+                    - 0.5 * (nu + 1) * np.log1p(z * z / nu))
+        else:
+            core = -0.5 * z * z - 0.5 * np.log(2.0 * np.pi)
+        return np.logaddexp(np.log1p(-self.outlier) + core - np.log(sd),
+                            np.log(self.outlier / max(self.width, 1.0)))
 
 
 def aic_onset(x: np.ndarray, lo: int, hi: int, dispersion: float = 1.0,

@@ -33,6 +33,11 @@ from drumroll.onsets.refine import Prior
 #: MAD to Gaussian standard deviation.
 _MAD_TO_SIGMA = 1.4826
 
+#: Fewest onsets a law is fitted to: three parameters and five to spare, since with fewer
+#: the fit all but interpolates them, a mistimed onset cannot be told from a bent law, and
+#: the scatter (hence the prior's width) is not measured at all.
+_MIN_ONSETS = 8
+
 
 @dataclass(frozen=True)
 class SequenceFit:
@@ -43,12 +48,16 @@ class SequenceFit:
     time_s
         The law's time for every onset (seconds).
     sd_s
-        Standard deviation of an onset about the law: the roll's measured scatter and the
-        fit's own uncertainty at that onset (seconds).
+        Scale of an onset about the law: the roll's measured scatter and the fit's own
+        uncertainty at that onset (seconds).
+    dof
+        Degrees of freedom the scatter was measured with (onsets less parameters): the
+        prediction is a Student t with that many, heavy-tailed for a short roll.
     """
 
     time_s: np.ndarray
     sd_s: np.ndarray
+    dof: int
 
 
 def _law(p: np.ndarray, n: int, quadratic: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -86,12 +95,11 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
     (measured as the MAD of the residuals, corrected for the parameters fitted); the loss is
     Cauchy's, so a mistimed onset hardly pulls. The drift of the ratio (``c``) is kept only
     when it pays for itself by the Bayesian information criterion on the Cauchy deviance.
-    Returns None for fewer than five onsets (a law of three or four parameters needs some
-    onsets to spare) or flights that do not shrink.
+    Returns None for fewer than :data:`_MIN_ONSETS` onsets or flights that do not shrink.
     """
     n = times.size
     flights = np.diff(times)
-    if n < 5 or np.any(flights <= 0):
+    if n < _MIN_ONSETS or np.any(flights <= 0):
         return None
     ratio = float(np.median(flights[1:] / flights[:-1]))
     if not 0.0 < ratio < 1.5:
@@ -120,7 +128,7 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
     except np.linalg.LinAlgError:
         return None
     var_fit = np.einsum("ij,jk,ik->i", jmat, cov, jmat)
-    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)))
+    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)), dof)
 
 
 def retime(times: np.ndarray, sigmas: np.ndarray, x: np.ndarray, start: int,
@@ -159,7 +167,8 @@ def retime(times: np.ndarray, sigmas: np.ndarray, x: np.ndarray, start: int,
         flight = times[j] - times[j - 1] if j else 0.05
         fit = max(64, min(round(0.006 * sr), round(0.5 * flight * sr) - (hi - lo) // 2))
         guess = (lo + hi) // 2
-        prior = Prior(mean=mu * sr, sd=sd * sr, outlier=outlier, width=hi - lo)
+        prior = Prior(mean=mu * sr, sd=sd * sr, outlier=outlier, width=hi - lo,
+                      dof=law.dof)
         r = refine_window(x, start, guess, sr, ba, settle, pre=guess - lo + fit,
                           post=2 * margin, search=guess - lo, search_after=hi - guess,
                           prior=prior)
