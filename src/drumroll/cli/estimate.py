@@ -89,8 +89,15 @@ def run(args: argparse.Namespace) -> int:
     """Run ``estimate``: check inputs and outputs first, then sample, then write."""
     # Imported here: the samplers and ArviZ take seconds to import, which other commands
     # (and ``--help``) should not pay.
+    import arviz as az
+
     from drumroll.pipeline import estimate
     from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
+
+    # ArviZ compiles its R-hat and ESS kernels with numba when numba is installed (librosa
+    # brings it), ~0.6 s in every process; on chains of a few thousand draws plain numpy is
+    # as fast. A command owns its process, so it may switch this off; the API does not.
+    az.Numba.disable_numba()
 
     source = Path(args.source)
     if not source.exists():
@@ -106,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
     with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
         result = estimate(source, config, progress=progress.say)
     with progress.stage(f"writing {out_dir}"):
-        write_outputs(result, out_dir, overwrite=args.force, truths=truths)
+        write_outputs(result, out_dir, overwrite=args.force, truths=truths,
+                      workers=args.workers)
     print(terminal_table(result))
     print(f"\nresults in {out_dir}/ (report.md, summary.json, posterior.nc, figures)")
     return 0

@@ -17,6 +17,7 @@ atomically; existing files are refused (all of them checked before anything is d
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -120,16 +121,34 @@ def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.Pat
     for path in paths.values():
         fileio.check_writable(path, overwrite=overwrite)
 
+    return {key: function(*args, **kwargs) for key, (function, args, kwargs)
+            in figure_jobs(idatas, main_model, paths, comparison, truths, overwrite,
+                           loos).items()}
+
+
+#: One figure to draw: a module-level plotting function and its arguments (picklable, so a
+#: process pool can draw figures side by side).
+FigureJob = tuple[Callable[..., Path], tuple, dict[str, Any]]
+
+
+def figure_jobs(idatas: dict[str, Any], main_model: str, paths: dict[str, Path],
+                comparison: list[dict[str, Any]] | None = None,
+                truths: dict[str, float] | None = None, overwrite: bool = False,
+                loos: dict[str, Any] | None = None) -> dict[str, FigureJob]:
+    """The figures of :func:`write_figures` as jobs, slowest first; ``paths`` maps each key of
+    :data:`FIGURE_FILES` to its file. Nothing is drawn yet: call ``function(*args,
+    **kwargs)``, here or in another process."""
     main = idatas[main_model]
     rows = loo_comparison(idatas, main_model, comparison, loos)
-    written: dict[str, Path] = {}
-    written["bounce_series"] = plot_bounce_series(idatas, main_model, paths["bounce_series"],
-                                                  overwrite=overwrite)
-    written["corner"] = plot_corner(main, paths["corner"], truths, overwrite=overwrite)
-    written["trace"] = plot_trace(main, paths["trace"], overwrite=overwrite)
-    written["residuals"] = plot_residuals(idatas, paths["residuals"], main_model,
-                                          overwrite=overwrite)
+    jobs: dict[str, FigureJob] = {
+        "corner": (plot_corner, (main, paths["corner"], truths), {"overwrite": overwrite}),
+        "trace": (plot_trace, (main, paths["trace"]), {"overwrite": overwrite}),
+        "bounce_series": (plot_bounce_series, (idatas, main_model, paths["bounce_series"]),
+                          {"overwrite": overwrite}),
+        "residuals": (plot_residuals, (idatas, paths["residuals"], main_model),
+                      {"overwrite": overwrite}),
+    }
     if rows:
-        written["comparison"] = plot_comparison(rows, main_model, paths["comparison"],
-                                                overwrite=overwrite)
-    return written
+        jobs["comparison"] = (plot_comparison, (rows, main_model, paths["comparison"]),
+                              {"overwrite": overwrite})
+    return jobs

@@ -19,6 +19,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +27,7 @@ import arviz as az
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
-from drumroll.reporting.figures import FIGURE_FILES, write_figures
+from drumroll.reporting.figures import FIGURE_FILES, figure_jobs
 from drumroll.reporting.onset_plot import write_onset_plot
 from drumroll.reporting.report import write_report
 
@@ -115,8 +116,12 @@ def _json_safe(value: Any) -> Any:
 
 
 def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bool = False,
-                  truths: dict[str, float] | None = None) -> dict[str, Path]:
+                  truths: dict[str, float] | None = None, workers: int | None = None
+                  ) -> dict[str, Path]:
     """Write every output of ``result`` (a :class:`drumroll.pipeline.Result`) into ``out_dir``.
+
+    The figures are drawn by ``workers`` processes (default: one per core) while this one
+    writes ``posterior.nc`` and ``summary.json``.
 
     Returns
     -------
@@ -130,16 +135,27 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
     out_dir.mkdir(exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
     try:
-        figures = write_figures(result.idatas, result.model, staging,
-                                comparison=result.summary["comparison"], truths=truths,
-                                overwrite=True, loos=result.loos)
+        jobs = figure_jobs(result.idatas, result.model,
+                           {key: staging / name for key, name in FIGURE_FILES.items()},
+                           comparison=result.summary["comparison"], truths=truths,
+                           overwrite=True, loos=result.loos)
         if audio is not None:
-            figures["onsets"] = write_onset_plot(staging / ONSETS_FIGURE, audio, result.onsets,
-                                                 overwrite=True)
-        summary = _json_safe(result.summary)
-        fileio.write_text(staging / "summary.json", json.dumps(summary, indent=2) + "\n",
-                          overwrite=True)
-        save_posteriors(result.idatas, result.model, staging / "posterior.nc")
+            jobs["onsets"] = (write_onset_plot, (staging / ONSETS_FIGURE, audio, result.onsets),
+                              {"overwrite": True})
+        workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
+        with contextlib.ExitStack() as stack:
+            pool = (stack.enter_context(ProcessPoolExecutor(max_workers=workers))
+                    if workers > 1 else None)
+            futures = {key: pool.submit(function, *args, **kwargs) for key, (function, args,
+                       kwargs) in jobs.items()} if pool is not None else {}
+            summary = _json_safe(result.summary)
+            fileio.write_text(staging / "summary.json", json.dumps(summary, indent=2) + "\n",
+                              overwrite=True)
+            save_posteriors(result.idatas, result.model, staging / "posterior.nc")
+            figures = ({key: future.result() for key, future in futures.items()}
+                       if pool is not None else
+                       {key: function(*args, **kwargs)
+                        for key, (function, args, kwargs) in jobs.items()})
         write_report(staging / "report.md", summary, figures, overwrite=True)
         written = {}
         for path in sorted(staging.iterdir()):
