@@ -81,7 +81,7 @@ class JointPosterior:
         from drumroll.inference.coordinates import SamplerCoordinates
 
         self.parts, self.labels, self.shared = parts, labels, shared
-        self.coordinates = [SamplerCoordinates(p.space) for p in parts]
+        self.coordinates = [SamplerCoordinates(p.space, p.data) for p in parts]
         self.shared_columns = [[p.space.names.index(s) for s in shared] for p in parts]
         self.own_columns = [[j for j, n in enumerate(p.space.names) if n not in shared]
                             for p in parts]
