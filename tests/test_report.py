@@ -75,7 +75,7 @@ def test_report_has_title_table_rows_comparison_and_figure_links(summary, figure
     alpha_row = next(line for line in text.splitlines() if line.startswith("| α |"))
     assert format_value_error(0.8612, 0.0123) in alpha_row  # 0.861 ± 0.012
     assert "0.841 … 0.881" in alpha_row
-    assert "| 1.002 |" in alpha_row and "1500 / 1800" in alpha_row
+    assert "| 1.0020 |" in alpha_row and "1500 / 1800" in alpha_row
     assert "| d (mm) |" in text and "131.2 ± 1.3" in text and "129.1 … 133.4" in text
     assert "| t_B (s) |" in text and "0.2531 ± 0.0005" in text
     assert "| σ (ms) |" in text and "| θ_C (deg) |" in text

@@ -127,7 +127,7 @@ def terminal_table(result: Result) -> str:
     hdi = next(iter(parameters.values()))["hdi_prob"]
     lines = [f"{summary['model']}: {summary['n_onsets']} onsets",
              f"{'parameter':<22} {'mean ± sd':>22} {f'{hdi:.0%} interval':>24} "
-             f"{'R-hat':>6} {'ESS':>6}"]
+             f"{'R-hat':>7} {'ESS':>6}"]
     for name, p in parameters.items():
         if p["sd"] is None or p["mean"] is None:
             continue
@@ -135,10 +135,10 @@ def terminal_table(result: Result) -> str:
         decimals = mean_sd.split(" ± ")[0]
         places = len(decimals.split(".")[1]) if "." in decimals else 0
         interval = f"[{p['hdi_low']:.{places}f}, {p['hdi_high']:.{places}f}]"
-        r_hat = "—" if p["r_hat"] is None else f"{p['r_hat']:.3f}"
+        r_hat = "—" if p["r_hat"] is None else f"{p['r_hat']:.4f}"
         ess = "—" if p["ess_bulk"] is None or math.isnan(p["ess_bulk"]) else \
             f"{min(p['ess_bulk'], p['ess_tail'] or math.inf):.0f}"
-        lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>6} {ess:>6}")
+        lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>7} {ess:>6}")
     for d in summary["diagnostics"].values():
         for warning in d["warnings"]:
             lines.append(f"warning: {warning}")

@@ -96,7 +96,7 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
     for name in sampled:
         rh, eb, et = float(r_hat[name]), float(ess_bulk[name]), float(ess_tail[name])
         if not rh < sampler.max_r_hat:
-            warnings.append(f"{model}: R-hat of {name} is {rh:.3f} (target < "
+            warnings.append(f"{model}: R-hat of {name} is {rh:.4f} (target < "
                             f"{sampler.max_r_hat}): the walkers disagree; run longer")
         if not min(eb, et) >= sampler.min_ess:
             warnings.append(f"{model}: {name} has only {min(eb, et):.0f} effective samples "

@@ -149,7 +149,7 @@ def _rhat_text(value: Any) -> str:
     if not _finite(value):
         return "—"
     value = float(value)
-    return f"**{value:.3f}** ⚠" if value > 1.01 else f"{value:.3f}"
+    return f"**{value:.4f}** ⚠" if value >= 1.01 else f"{value:.4f}"
 
 
 def _ess_text(bulk: Any, tail: Any) -> str:

@@ -117,9 +117,9 @@ def draw_trace(idata, n_highlight: int = 3):
         ax_hist.set_xticks([])
         ax_hist.spines["bottom"].set_visible(False)
         rhat, ess = stats[name]
-        flag = np.isfinite(rhat) and rhat > RHAT_LIMIT
-        ax.set_title(f"{parameter_symbol(name)}:  $\\hat{{R}}$ = {rhat:.3f}"
-                     f"{'  (above ' + str(RHAT_LIMIT) + ')' if flag else ''},  "
+        flag = np.isfinite(rhat) and rhat >= RHAT_LIMIT
+        ax.set_title(f"{parameter_symbol(name)}:  $\\hat{{R}}$ = {rhat:.4f}"
+                     f"{'  (not below ' + str(RHAT_LIMIT) + ')' if flag else ''},  "
                      f"bulk ESS = {ess:.0f}", loc="left", fontsize=9.5,
                      color=OKABE_ITO["vermillion"] if flag else "black")
     axes[-1, 0].set_xlabel(xlabel)

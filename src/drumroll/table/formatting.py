@@ -136,7 +136,7 @@ def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
         shared = ", ".join(result.runs.share)
         out.append(f"{_SHARED_MARK} {shared} fitted jointly across the runs (one posterior, "
                    "which also gives the rows' fitted t_B); "
-                   + "; ".join(f"{k} = {_cell(v)} (R-hat {v['r_hat']:.3f}, ESS "
+                   + "; ".join(f"{k} = {_cell(v)} (R-hat {v['r_hat']:.4f}, ESS "
                                f"{v['ess_bulk']:.0f})" for k, v in joint["shared"].items())
                    + f"; {joint['n_steps']} steps" + ("." if joint["converged"] else
                    ", stopped at the step limit before converging: raise [sampler] "
