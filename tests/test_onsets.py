@@ -113,9 +113,9 @@ def test_clean_roll_is_found_to_the_sample(sr):
         assert table.time_s[0] >= r.impact_times_s[0] - 0.002  # nothing before the roll
         assert table.time_s[-1] <= r.impact_times_s[-1] + 0.002
         assert np.all(table.sigma_s > 0) and np.all(table.sigma_s < 5e-3)
-    # Goal 0.98 (met on average at 30 dB in the benchmark; single rolls dip to ~0.93 when
-    # one faint impact is timed a few ms late).
-    assert np.mean(f1s) >= 0.93
+    # Goal 0.98 (met on average at 30 dB in the benchmark, 0.995); these three rolls score
+    # 0.97-1.00 by rate: one faint impact timed > 2 ms off costs 0.03.
+    assert np.mean(f1s) >= 0.95
 
 
 def test_disturbed_roll_at_20_db():
@@ -127,12 +127,12 @@ def test_disturbed_roll_at_20_db():
         # The tap before the roll and the knock after it are not impacts.
         assert table.time_s[0] >= r.impact_times_s[0] - 0.002
         assert table.time_s[-1] <= r.impact_times_s[-1] + 0.002
-    assert np.mean(f1s) >= 0.93  # goal 0.98
+    assert np.mean(f1s) >= 0.98  # the goal at 20 dB
 
 
 def test_low_snr_roll():
     f1s = [detect_and_score(simulated_roll(20 + seed, snr_db=12))[1] for seed in range(3)]
-    assert np.mean(f1s) >= 0.85  # goal 0.95
+    assert np.mean(f1s) >= 0.95  # the goal at 12 dB (the benchmark's mean is 0.946)
 
 
 def test_stray_sounds_are_rejected_with_reasons():
