@@ -141,8 +141,8 @@ def test_lean_impacts_match_bounces_on_valid_points():
 
 # --- sampler coordinates ---------------------------------------------------------------------
 
-from drumroll.inference.sampling import SamplerSettings, SamplerTarget, run_emcee  # noqa: E402
 from drumroll.inference.coordinates import SamplerCoordinates  # noqa: E402
+from drumroll.inference.sampling import SamplerSettings, SamplerTarget, run_emcee  # noqa: E402
 
 COORDINATE_CASES = [(model, variant) for model in ("pendulum", "small-angle", "powerlaw")
                     for variant in ("table1", "release", "thin-rod")]
