@@ -9,6 +9,7 @@ or the physics, and on special values, for every model and several set-ups.
 from __future__ import annotations
 
 import math
+import zlib
 
 import numpy as np
 import pytest
@@ -84,9 +85,11 @@ CASES = [(model, variant, sigmas, noise)
 
 @pytest.mark.parametrize(("model", "variant", "sigmas", "noise"), CASES)
 def test_lean_log_posterior_equals_reference(model, variant, sigmas, noise):
-    """Batch and one-point paths agree with the general path to 1e-12, −inf included."""
+    """Batch and one-point paths agree with the general path to 1e-11, −inf included (prior
+    draws far from the data have χ² ~ 1e10, whose last digits depend on summation order)."""
     lp = LogPosterior.build(_config(variant), model, _data(sigmas), noise)
-    rng = np.random.default_rng(hash((model, variant)) % 2**32)
+    # A stable seed per case (hash() of a str changes with every interpreter run).
+    rng = np.random.default_rng(zlib.crc32(f"{model}/{variant}".encode()))
     x = _points(lp, rng)
     want = lp.reference(x)
     with np.errstate(all="raise"):  # the lean paths never warn
@@ -97,11 +100,11 @@ def test_lean_log_posterior_equals_reference(model, variant, sigmas, noise):
     assert finite.sum() > 150 and (~finite).sum() > 30  # both kinds are exercised
     for value in (got, one):
         np.testing.assert_array_equal(np.isfinite(value), finite)
-        np.testing.assert_allclose(value[finite], want[finite], rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(value[finite], want[finite], rtol=1e-11, atol=1e-9)
         assert np.all(value[~finite] == -np.inf)
     like = lp.log_likelihood_reference(x[finite])
-    np.testing.assert_allclose(lp.log_likelihood(x[finite]), like, rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(like_one[finite], like, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(lp.log_likelihood(x[finite]), like, rtol=1e-11, atol=1e-9)
+    np.testing.assert_allclose(like_one[finite], like, rtol=1e-11, atol=1e-9)
 
 
 @pytest.mark.parametrize("variant", ["table1", "release", "thin-rod", "radius"])
