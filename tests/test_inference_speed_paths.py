@@ -151,6 +151,19 @@ COORDINATE_CASES = [(model, variant) for model in ("pendulum", "small-angle", "p
                     for variant in ("table1", "release", "thin-rod")]
 
 
+def _numerical_log_det(coords, zr: np.ndarray) -> float:
+    """log |det ∂x/∂z| at one point by central differences."""
+    step = 1e-6 * np.maximum(np.abs(zr), 1e-3)
+    jac = np.empty((zr.size, zr.size))
+    for j in range(zr.size):
+        hi, lo = zr.copy(), zr.copy()
+        hi[j] += step[j]
+        lo[j] -= step[j]
+        jac[:, j] = (coords.to_parameters(hi)[0][0] - coords.to_parameters(lo)[0][0]) \
+            / (2 * step[j])
+    return float(np.log(abs(np.linalg.det(jac))))
+
+
 @pytest.mark.parametrize(("model", "variant"), COORDINATE_CASES)
 def test_sampler_coordinates_round_trip_and_jacobian(model, variant):
     """z → x inverts x → z on valid points, and log|det| matches a finite-difference Jacobian."""
@@ -163,15 +176,7 @@ def test_sampler_coordinates_round_trip_and_jacobian(model, variant):
     back, log_det = coords.to_parameters(z)
     np.testing.assert_allclose(back, x, rtol=1e-11, atol=0)
     for row, zr in enumerate(z[:20]):
-        step = 1e-6 * np.maximum(np.abs(zr), 1e-3)
-        jac = np.empty((zr.size, zr.size))
-        for j in range(zr.size):
-            hi, lo = zr.copy(), zr.copy()
-            hi[j] += step[j]
-            lo[j] -= step[j]
-            jac[:, j] = (coords.to_parameters(hi)[0][0] - coords.to_parameters(lo)[0][0]) \
-                / (2 * step[j])
-        np.testing.assert_allclose(log_det[row], np.log(abs(np.linalg.det(jac))), atol=1e-6)
+        np.testing.assert_allclose(log_det[row], _numerical_log_det(coords, zr), atol=1e-6)
 
 
 @pytest.mark.parametrize("model", ["pendulum", "small-angle"])
@@ -241,15 +246,7 @@ def test_sampler_coordinates_of_a_sampled_t0(model):
     back, log_det = coords.to_parameters(z)
     np.testing.assert_allclose(back, x, rtol=1e-10, atol=1e-12)
     for row, zr in enumerate(z):
-        step = 1e-6 * np.maximum(np.abs(zr), 1e-3)
-        jac = np.empty((zr.size, zr.size))
-        for j in range(zr.size):
-            hi, lo = zr.copy(), zr.copy()
-            hi[j] += step[j]
-            lo[j] -= step[j]
-            jac[:, j] = (coords.to_parameters(hi)[0][0] - coords.to_parameters(lo)[0][0]) \
-                / (2 * step[j])
-        np.testing.assert_allclose(log_det[row], np.log(abs(np.linalg.det(jac))), atol=1e-5)
+        np.testing.assert_allclose(log_det[row], _numerical_log_det(coords, zr), atol=1e-5)
     target = SamplerTarget(lp, coords)(z)
     np.testing.assert_allclose(target, lp(x) + log_det, rtol=1e-12)
 
