@@ -13,7 +13,6 @@ import math
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -35,6 +34,7 @@ from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.inference.summary import diagnostics, parameter_summary
 from drumroll.onsets import OnsetTable, detect, read_onsets
+from drumroll.workers import process_pool
 
 #: Fewest onsets that can constrain a model (three flights).
 MIN_ONSETS = 4
@@ -228,7 +228,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     if workers == 1:
         outputs = [_fit(config, m, data, settings, s) for m, s in zip(models, seeds, strict=True)]
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with process_pool(workers) as pool:
             futures = [pool.submit(_fit, config, m, data, settings, s)
                        for m, s in zip(models, seeds, strict=True)]
             outputs = []

@@ -19,7 +19,6 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +29,7 @@ from drumroll.errors import DrumrollError
 from drumroll.reporting.figures import FIGURE_FILES, figure_jobs
 from drumroll.reporting.onset_plot import write_onset_plot
 from drumroll.reporting.report import write_report
+from drumroll.workers import process_pool
 
 #: Files an estimate writes, besides the figures.
 DATA_FILES = ("summary.json", "posterior.nc", "report.md")
@@ -132,8 +132,10 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
         not in fileio.ONSET_FILE_SUFFIXES else None
     names = output_files(include_onsets_figure=audio is not None)
     out_dir = check_outputs(out_dir, names, overwrite=overwrite)
+    created = not out_dir.exists()
     out_dir.mkdir(exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
+    finished = False
     try:
         jobs = figure_jobs(result.idatas, result.model,
                            {key: staging / name for key, name in FIGURE_FILES.items()},
@@ -144,7 +146,7 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
                               {"overwrite": True})
         workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
         with contextlib.ExitStack() as stack:
-            pool = (stack.enter_context(ProcessPoolExecutor(max_workers=workers))
+            pool = (stack.enter_context(process_pool(workers))
                     if workers > 1 else None)
             futures = {key: pool.submit(function, *args, **kwargs) for key, (function, args,
                        kwargs) in jobs.items()} if pool is not None else {}
@@ -164,7 +166,10 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
                 raise DrumrollError(f"{final}: appeared while we were working; not replaced")
             os.replace(path, final)
             written[path.stem] = final
+        finished = True
         return written
     finally:
         with contextlib.suppress(OSError):
             shutil.rmtree(staging)
+            if created and not finished:
+                out_dir.rmdir()  # only if still empty: a folder we made and filled with nothing

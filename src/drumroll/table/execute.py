@@ -17,7 +17,7 @@ import json
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import Executor, Future, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ from typing import Any
 from drumroll import __version__, fileio
 from drumroll.errors import DrumrollError
 from drumroll.table.runs import Run, RunsFile, validate_estimation
+from drumroll.workers import process_pool
 
 #: Bumped whenever the cached row's layout changes (old entries are then recomputed).
 CACHE_SCHEMA = 1
@@ -245,7 +246,7 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
         elif executor is not None:
             _submit_all(executor, runs, todo, finish, fail)
         else:
-            with ProcessPoolExecutor(max_workers=n) as pool:
+            with process_pool(n) as pool:
                 _submit_all(pool, runs, todo, finish, fail)
     if errors:  # the runs that succeeded are cached: fix the failing one and re-run
         raise errors[0]

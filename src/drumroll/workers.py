@@ -1,0 +1,33 @@
+"""Process pools that a Ctrl-C stops at once and quietly.
+
+A terminal's Ctrl-C reaches every process of the command. The workers ignore it, so that the
+main process alone sees the interrupt (and reports it in one line, removing whatever it had
+staged) instead of racing their tracebacks; on any exception the main process then stops
+the workers rather than waiting for their tasks to finish.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
+
+
+def _ignore_interrupt() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def process_pool(max_workers: int) -> Iterator[ProcessPoolExecutor]:
+    """A :class:`ProcessPoolExecutor` (as a context manager) for the commands' parallel work."""
+    pool = ProcessPoolExecutor(max_workers=max_workers, initializer=_ignore_interrupt)
+    try:
+        yield pool
+    except BaseException:
+        # Cancel what has not started and end what has: the run is abandoned.
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            process.terminate()
+        raise
+    pool.shutdown(wait=True)
