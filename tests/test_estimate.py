@@ -111,6 +111,11 @@ def test_posterior_file_reopens_with_every_group(ball):
                   "observed_data", "sample_stats"):
         assert group in idata.groups(), group
     assert idata.log_likelihood["onset_time"].shape[-1] == 12
+    # Every draw's R-hat and ESS (summary.json) travel with the thinned stored variables.
+    summary = json.loads((out / "summary.json").read_text())
+    for name, values in idata.posterior.data_vars.items():
+        for key in ("r_hat", "ess_bulk", "ess_tail"):
+            assert values.attrs[key] == pytest.approx(summary["parameters"][name][key])
 
 
 def test_existing_outputs_are_kept_without_force(ball, capsys):

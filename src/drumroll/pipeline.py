@@ -261,7 +261,15 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             evidence_entries[m], warning = evidence_summary(fit.evidence, fit.evidence_check)
             if warning:
                 model_diagnostics[m]["warnings"].append(f"{m}: {warning}")
-    for fit in fits.values():
+    for model, fit in fits.items():
+        # Every draw's R-hat and ESS travel with the variables (posterior.nc, trace.png),
+        # since the stored posterior is thinned below.
+        stats = parameters if model == config.model else parameter_summary(fit.idata,
+                                                                            settings.hdi_prob)
+        for name, values in fit.idata.posterior.data_vars.items():
+            values.attrs.update({key: stats[name][key] for key in ("r_hat", "ess_bulk",
+                                                                    "ess_tail")
+                                 if stats[name][key] is not None})
         fit.idata = thin_draws(fit.idata, MAX_DRAWS)
     summary = {
         "model": config.model,

@@ -49,11 +49,20 @@ def _attr(idata, name: str) -> float | None:
 
 
 def diagnostics(idata, names: list[str]) -> dict[str, tuple[float, float]]:
-    """Split R-hat and bulk ESS per parameter (NaN where ArviZ cannot compute them)."""
+    """Split R-hat and bulk ESS per parameter (NaN where ArviZ cannot compute them).
+
+    Where ``estimate`` stored them on the variable (``r_hat``, ``ess_bulk`` attributes:
+    computed on every draw, before the stored posterior was thinned), those are shown, so
+    the figure and ``summary.json`` agree.
+    """
     import arviz as az
 
     result = {}
     for name in names:
+        stored = idata.posterior[name].attrs
+        if "r_hat" in stored and "ess_bulk" in stored:
+            result[name] = (float(stored["r_hat"]), float(stored["ess_bulk"]))
+            continue
         values = np.asarray(idata.posterior[name].values, float)
         try:
             rhat = float(az.rhat(values))
