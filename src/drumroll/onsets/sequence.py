@@ -173,7 +173,7 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
 
 
 def until_the_law_breaks(times: np.ndarray, *columns: np.ndarray, keep_at_least: int = 4,
-                         false_alarm: float = 0.05) -> tuple[np.ndarray, ...]:
+                         false_alarm: float = 0.01) -> tuple[np.ndarray, ...]:
     """The roll up to (not including) the first onset that the law of the onsets before it
     does not predict.
 
