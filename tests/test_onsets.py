@@ -319,39 +319,3 @@ def test_prior_decides_only_where_the_waveform_does_not():
     k, spread = aic_onset(faint, 200, 600, prior=prior)
     assert abs(k - 300) <= 15  # no clear start: the prior places it
     assert spread < aic_onset(faint, 200, 600)[1]
-
-
-def _geometric_roll(rng: np.random.Generator, n: int, scatter: float) -> np.ndarray:
-    flights = rng.uniform(0.15, 0.4) * rng.uniform(0.8, 0.95) ** np.arange(n - 1)
-    return np.concatenate(([0.0], np.cumsum(flights))) + scatter * rng.standard_normal(n)
-
-
-def test_law_check_cuts_a_roll_that_follows_its_law_rarely():
-    """The chance that a clean roll is cut anywhere is the stated false-alarm rate (1 %),
-    even when the timing uncertainties understate the scatter (the roll's own is used)."""
-    from drumroll.onsets.sequence import until_the_law_breaks
-
-    cut = 0
-    for seed in range(200):
-        times = _geometric_roll(np.random.default_rng(seed), 15, 2e-4)
-        cut += until_the_law_breaks(times, np.full(times.size, 1e-4))[0].size < times.size
-    assert cut / 200 <= 0.04  # binomial sd at 1 %: 0.007
-
-
-@pytest.mark.parametrize("fault", ["late", "missed"])
-def test_law_check_ends_the_roll_at_a_bounce_off_its_law(fault):
-    from drumroll.onsets.sequence import until_the_law_breaks
-
-    times = _geometric_roll(np.random.default_rng(3), 20, 1e-4)
-    if fault == "late":  # a faint bounce timed where its sound grows, 3 ms in
-        times[12] += 3e-3
-    else:  # bounce 12 not found: onset 12 is bounce 13
-        times = np.delete(times, 12)
-    sigma = np.full(times.size, 1e-4)
-    kept, kept_sigma = until_the_law_breaks(times, sigma, keep_at_least=4)
-    np.testing.assert_array_equal(kept, times[:12])
-    assert kept_sigma.size == 12
-    # A short roll cannot pin its law down: the same fault at onset 4 is not judged.
-    short = _geometric_roll(np.random.default_rng(3), 6, 1e-4)
-    short[4] += 3e-3
-    assert until_the_law_breaks(short, np.full(6, 1e-4))[0].size == 6

@@ -5,9 +5,7 @@ sub-millisecond high-frequency detection function (:mod:`.odf`), picks significa
 against robust noise statistics (:mod:`.peaks`), refines each to the sample
 (:mod:`.refine`), keeps the sequence whose intervals shrink like a bouncer's
 (:mod:`.tracking`), and follows it into the noise window by window where physics predicts
-the next impact (:mod:`.follow`). The roll's own flight law then times every onset again and
-ends the roll at the first onset the law of those before it rules out (:mod:`.sequence`).
-:func:`read_onsets` reads onset files back (:mod:`.table`).
+the next impact (:mod:`.follow`). :func:`read_onsets` reads onset files back (:mod:`.table`).
 """
 
 from __future__ import annotations

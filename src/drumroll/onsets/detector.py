@@ -13,7 +13,7 @@ from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
 from drumroll.onsets.follow import Excerpt, FollowParams, follow
 from drumroll.onsets.odf import OdfParams
-from drumroll.onsets.sequence import retime, until_the_law_breaks
+from drumroll.onsets.sequence import retime
 from drumroll.onsets.table import OnsetTable
 from drumroll.onsets.tracking import TrackParams, explain, track
 
@@ -118,7 +118,6 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
     cols, ex = _extend(c.subset(tr.index), p, odf, rate, excerpt, total)
     if ex is not None:  # each onset timed again with the whole roll's law as its prior
         cols = retime(cols[0], cols[3], ex.x, ex.start, rate, ex.ba, ex.settle) or cols
-    cols = until_the_law_breaks(*cols, keep_at_least=p.min_onsets)
     cols = until_a_flight_grows(*cols, keep_at_least=p.min_onsets)
     if cols[0].size < p.min_onsets:
         raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
