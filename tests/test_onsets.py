@@ -237,6 +237,17 @@ def test_noise_silence_and_single_hit_are_errors():
         detect(r.samples, r.sample_rate)
 
 
+def test_a_pattern_in_the_ring_down_is_not_a_roll():
+    """Three unrelated hits; 0.76 s after the last, four faint wiggles of its ring-down and
+    the noise are spaced like bounces, but each is quieter than the sound it lands in."""
+    rng = np.random.default_rng(2000)
+    times = np.sort(rng.uniform(0, 2.0, 3))
+    r = render(times - times[0], rng.uniform(0.3, 1.5, 3), rng=rng,
+               disturbances=Disturbances(snr_db=20))
+    with pytest.raises(AudioError, match="quieter than the sound around it"):
+        detect(r.samples, r.sample_rate)
+
+
 @pytest.mark.slow
 def test_sigma_s_matches_the_timing_errors():
     """(detected - true) / sigma_s should scatter with a spread of about one."""

@@ -114,8 +114,14 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
     if tr.index.size <= 1 or tr.score <= 0:
         raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
                          "(a single hit, noise or silence?)")
+    kept = c.subset(tr.index)
+    if not np.any(kept.snr_db >= FollowParams().min_snr_db):
+        # Every one of them is quieter than the sound it lands in (ring-down, noise): a
+        # pattern in the background, not a bouncer, which starts with its loudest impact.
+        raise AudioError(f"no drumroll found in {name}: the only sequence of bounces in it "
+                         "is quieter than the sound around it")
     # Three tracked onsets already predict a fourth: the targeted search may supply it.
-    cols, ex = _extend(c.subset(tr.index), p, odf, rate, excerpt, total)
+    cols, ex = _extend(kept, p, odf, rate, excerpt, total)
     if ex is not None:  # each onset timed again with the whole roll's law as its prior
         cols = retime(cols[0], cols[3], ex.x, ex.start, rate, ex.ba, ex.settle) or cols
     cols = until_a_flight_grows(*cols, keep_at_least=p.min_onsets)
