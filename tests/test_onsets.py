@@ -248,6 +248,19 @@ def test_a_pattern_in_the_ring_down_is_not_a_roll():
         detect(r.samples, r.sample_rate)
 
 
+def test_a_faint_tap_does_not_start_the_roll():
+    """Three unrelated hits and, 1 s before them, a tap quieter than the hum and noise it
+    lands in: the tap used to be taken as the first bounce of a four-bounce roll. A bouncer
+    starts with its loudest impact, so the roll may not start with an onset that does not
+    stand out, and three hits are not a roll."""
+    rng = np.random.default_rng(7919 + 12000 + 4)
+    times = np.sort(rng.uniform(0.0, 2.0, 3))
+    r = render(times - times[0], rng.uniform(0.3, 1.5, 3), rng=rng,
+               disturbances=Disturbances(snr_db=12, hum_hz=50.0, spurious=True))
+    with pytest.raises(AudioError, match="only 3 impacts"):
+        detect(r.samples, r.sample_rate)
+
+
 @pytest.mark.slow
 def test_sigma_s_matches_the_timing_errors():
     """(detected - true) / sigma_s should scatter with a spread of about one."""

@@ -115,11 +115,14 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
         raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
                          "(a single hit, noise or silence?)")
     kept = c.subset(tr.index)
-    if not np.any(kept.snr_db >= FollowParams().min_snr_db):
-        # Every one of them is quieter than the sound it lands in (ring-down, noise): a
-        # pattern in the background, not a bouncer, which starts with its loudest impact.
+    # A bouncer starts with its loudest impact: onsets before the first that stands out of
+    # the sound it lands in are a tap or noise before the roll.
+    timeable = np.flatnonzero(kept.snr_db >= FollowParams().min_snr_db)
+    if timeable.size == 0:
+        # A pattern in the ring-down or the noise, not a bouncer.
         raise AudioError(f"no drumroll found in {name}: the only sequence of bounces in it "
                          "is quieter than the sound around it")
+    kept = kept.subset(np.arange(int(timeable[0]), len(kept)))
     # Three tracked onsets already predict a fourth: the targeted search may supply it.
     cols, ex = _extend(kept, p, odf, rate, excerpt, total)
     if ex is not None:  # each onset timed again with the whole roll's law as its prior
