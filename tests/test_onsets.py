@@ -127,7 +127,7 @@ def test_disturbed_roll_at_20_db():
         # The tap before the roll and the knock after it are not impacts.
         assert table.time_s[0] >= r.impact_times_s[0] - 0.002
         assert table.time_s[-1] <= r.impact_times_s[-1] + 0.002
-    # The goal at 20 dB, met by these three rolls; over the benchmark's 120 rolls at 20 dB the
+    # The goal at 20 dB, met by these three rolls; over the benchmark's 100 rolls at 20 dB the
     # mean is 0.982 on its own seeds and 0.976 on seeds 10-14.
     assert np.mean(f1s) >= 0.98
 
