@@ -237,13 +237,18 @@ def test_noise_silence_and_single_hit_are_errors():
         detect(r.samples, r.sample_rate)
 
 
+def _three_unrelated_hits(seed: int, disturbances: Disturbances):
+    """A recording with no roll: three hits at random times within 2 s, random speeds."""
+    rng = np.random.default_rng(seed)
+    times = np.sort(rng.uniform(0.0, 2.0, 3))
+    return render(times - times[0], rng.uniform(0.3, 1.5, 3), rng=rng,
+                  disturbances=disturbances)
+
+
 def test_a_pattern_in_the_ring_down_is_not_a_roll():
     """Three unrelated hits; 0.76 s after the last, four faint wiggles of its ring-down and
     the noise are spaced like bounces, but each is quieter than the sound it lands in."""
-    rng = np.random.default_rng(2000)
-    times = np.sort(rng.uniform(0, 2.0, 3))
-    r = render(times - times[0], rng.uniform(0.3, 1.5, 3), rng=rng,
-               disturbances=Disturbances(snr_db=20))
+    r = _three_unrelated_hits(2000, Disturbances(snr_db=20))
     with pytest.raises(AudioError, match="quieter than the sound around it"):
         detect(r.samples, r.sample_rate)
 
@@ -253,10 +258,8 @@ def test_a_faint_tap_does_not_start_the_roll():
     lands in: the tap used to be taken as the first bounce of a four-bounce roll. A bouncer
     starts with its loudest impact, so the roll may not start with an onset that does not
     stand out, and three hits are not a roll."""
-    rng = np.random.default_rng(7919 + 12000 + 4)
-    times = np.sort(rng.uniform(0.0, 2.0, 3))
-    r = render(times - times[0], rng.uniform(0.3, 1.5, 3), rng=rng,
-               disturbances=Disturbances(snr_db=12, hum_hz=50.0, spurious=True))
+    r = _three_unrelated_hits(7919 + 12000 + 4,
+                              Disturbances(snr_db=12, hum_hz=50.0, spurious=True))
     with pytest.raises(AudioError, match="only 3 impacts"):
         detect(r.samples, r.sample_rate)
 
