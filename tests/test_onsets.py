@@ -351,3 +351,47 @@ def test_prior_decides_only_where_the_waveform_does_not():
     k, spread = aic_onset(faint, 200, 600, prior=prior)
     assert abs(k - 300) <= 15  # no clear start: the prior places it
     assert spread < aic_onset(faint, 200, 600)[1]
+
+
+def test_envelope_places_a_faint_impact_at_its_start_not_its_growth():
+    """A sound whose first 4 ms are 12 dB under its peak (a snare's wires slap a head period
+    in), once loud and once 9 dB under the background: the waveform's step is where the faint
+    one grows; the loud one's envelope, as a template, puts it where it starts."""
+    from drumroll.onsets.envelope import STRONG, profile
+
+    shape = np.concatenate((np.full(16, 10 ** -1.2), np.exp(-np.arange(120) / 40.0)))
+    n, loud_at, faint_at = 400, 20, 260
+    mean = 1.0 + 300.0 * _shifted(shape, n, loud_at) + 0.9 * _shifted(shape, n, faint_at)
+    trials = np.arange(faint_at - 24, faint_at + 24)
+    errors, at_growth = [], []
+    for seed in range(20):
+        # A bin's power scatters about its mean (8 degrees of freedom here).
+        power = mean * np.random.default_rng(seed).gamma(8.0, 1.0 / 8.0, n)
+        ll = profile(power[200:], shape, np.array([loud_at - 200]), trials - 200)
+        errors.append(int(trials[np.argmax(ll)]) - faint_at)
+        at_growth.append(ll[trials == faint_at + 16][0])
+    errors = np.abs(errors)
+    assert np.median(errors) <= 1 and np.mean(errors <= 3) >= 0.9  # bins of the envelope
+    assert max(at_growth) < -STRONG  # the change point's place is ruled out every time
+
+
+@pytest.mark.slow
+def test_faint_bounces_are_not_timed_where_their_sound_grows():
+    """In the simulator a snare's wires slap a head period (5 ms) after the stick lands, so
+    a faint bounce's sound grows well after it starts. Without the envelope 4 of these 20
+    rolls' 189 onsets came more than 2 ms late (F1 0.955); with it, 1 (F1 0.973)."""
+    late, f1s = 0, []
+    for seed in range(100, 120):
+        r = simulated_roll(seed, snr_db=12)
+        table, f1, _ = detect_and_score(r)
+        f1s.append(f1)
+        d = table.time_s[:, None] - r.impact_times_s[None, :]
+        late += int(np.sum(d[np.arange(d.shape[0]), np.abs(d).argmin(axis=1)] > 0.002))
+    assert late <= 1
+    assert np.mean(f1s) >= 0.965
+
+
+def _shifted(shape: np.ndarray, n: int, at: int) -> np.ndarray:
+    out = np.zeros(n)
+    out[at: at + shape.size] = shape[: n - at]
+    return out

@@ -4,8 +4,11 @@
 sub-millisecond high-frequency detection function (:mod:`.odf`), picks significant peaks
 against robust noise statistics (:mod:`.peaks`), refines each to the sample
 (:mod:`.refine`), keeps the sequence whose intervals shrink like a bouncer's
-(:mod:`.tracking`), and follows it into the noise window by window where physics predicts
-the next impact (:mod:`.follow`). :func:`read_onsets` reads onset files back (:mod:`.table`).
+(:mod:`.tracking`), follows it into the noise window by window where physics predicts
+the next impact (:mod:`.follow`), and times each onset again with the roll's help: its law
+as a prior (:mod:`.sequence`), and its loudest impact's sound envelope as a template for the
+faint ones whose first milliseconds are lost in what they land in (:mod:`.envelope`).
+:func:`read_onsets` reads onset files back (:mod:`.table`).
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ import numpy as np
 from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe, read_excerpt
 from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
+from drumroll.onsets.envelope import retime_by_envelope
 from drumroll.onsets.follow import Excerpt, FollowParams, follow
 from drumroll.onsets.odf import OdfParams
 from drumroll.onsets.sequence import retime
@@ -127,6 +128,9 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
     cols, ex = _extend(kept, p, odf, rate, excerpt, total)
     if ex is not None:  # each onset timed again with the whole roll's law as its prior
         cols = retime(cols[0], cols[3], ex.x, ex.start, rate, ex.ba, ex.settle) or cols
+        # ... and against the sound of the roll's loudest impact, which shows where a faint
+        # one's sound starts when its first milliseconds are lost in what it lands in.
+        cols = retime_by_envelope(cols, ex.x, ex.start, rate, ex.ba, ex.settle)
     cols = until_a_flight_grows(*cols, keep_at_least=p.min_onsets)
     if cols[0].size < p.min_onsets:
         raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "

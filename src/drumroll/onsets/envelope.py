@@ -1,0 +1,220 @@
+"""Timing each bounce against the roll's own sound: the loudest impact's envelope as a template.
+
+The change point of :mod:`.refine` finds where a sound steps out of what it lands in. For a
+loud impact that is where it starts. A faint one may begin weaker than the ring, buzz and noise
+around it and only stand out where its sound grows (a snare's wires slap a head period in):
+its change point is then late by that growth, with a small ``sigma_s``, because the step
+there is sharp. Nothing in the first milliseconds of the waveform says so.
+
+The roll itself does. Every impact of one bouncer on one surface makes much the same sound,
+louder or fainter, and the loudest impact shows the whole of it far above the noise. Its power
+envelope above :data:`BAND_HZ` (the attack's band: the modes that ring for hundreds of
+milliseconds lie below it) is the template ``E``. Around every other onset the power envelope
+is fitted as
+
+    P(t) = b0 + b1 t + sum_j a_j E(t - t_j) + a E(t - s),
+
+a background (constant and slope), the earlier bounces' sounds at their onsets ``t_j``, and
+this bounce's at a trial onset ``s``: weighted least squares with weights ``1 / P^2`` (a power
+averaged over a bin scatters in proportion to its mean), the dispersion measured from the best
+fit's residuals. The profile likelihood over ``s`` says where the impact's *whole* sound fits.
+
+An onset is moved only when the envelope rules its place out strongly: a log likelihood
+ratio of at least :data:`STRONG` (3: odds of about 20, "strong" on Kass & Raftery's scale)
+between the best trial onset and every place within a bin and two ``sigma_s`` of the onset
+(the envelope's resolution is a bin: it has nothing to say about finer timing). The onset is
+then placed by the change point within a bin of the best trial onset, and its ``sigma_s``
+includes the spread of the envelope's likelihood. Where a sound starts at its loudest (a
+click, a ball on a table) or stands well out of what it lands in, the envelope agrees with
+the change point and nothing moves.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import signal
+
+from drumroll.onsets.candidates import refine_window
+
+#: Lower edge of the band whose power envelope is fitted (Hz): an impact's attack (stick
+#: click, snare wires, the contact's broadband burst) is above it, a drum's and a table's
+#: long-ringing low modes are below it.
+BAND_HZ = 1000.0
+
+#: Width of one envelope bin (seconds): half the detection function's finest hop.
+BIN_S = 0.25e-3
+
+#: Log likelihood ratio at which the envelope overrides the change point.
+STRONG = 3.0
+
+#: Earlier bounces whose sound is modelled under a bounce (older ones are background).
+_EARLIER = 3
+
+#: Longest stretch of the loudest impact taken as the template (seconds).
+_TEMPLATE_S = 0.2
+
+#: Fitted stretch around an onset (seconds): background before the earliest trial onset,
+#: and sound after the template's peak at the latest one.
+_BEFORE_S, _AFTER_S = 0.02, 0.005
+
+#: Trial onsets reach this far past the template's peak before the onset, and after it.
+_MARGIN_S = 0.001
+
+
+def power_envelope(x: np.ndarray, sample_rate: int) -> tuple[np.ndarray, int]:
+    """Mean power per bin of ``x`` high-passed at :data:`BAND_HZ` (a causal filter, so no
+    sound leaks ahead of its start), and the bin width in samples."""
+    sos = signal.butter(4, min(BAND_HZ, 0.4 * sample_rate), btype="highpass",
+                        fs=sample_rate, output="sos")
+    y = signal.sosfilt(sos, x)
+    width = max(1, round(BIN_S * sample_rate))
+    n = y.size // width
+    return np.mean(np.square(y[: n * width]).reshape(n, width), axis=1), width
+
+
+def template(power: np.ndarray, onset_bin: int, length: int) -> np.ndarray | None:
+    """The envelope of the impact starting in ``onset_bin``: its power over ``length`` bins
+    less the median power of the 20 ms before it, scaled to a peak of 1 (None if empty).
+
+    One impact's power scatters from bin to bin as the fitted ones' does; a centred
+    three-bin mean (0.75 ms, finer than any structure of the sound it needs) keeps the fit
+    from matching that scatter to theirs.
+    """
+    pre = power[max(onset_bin - 80, 0): onset_bin]
+    floor = float(np.median(pre)) if pre.size else 0.0
+    shape = np.clip(power[onset_bin: onset_bin + length] - floor, 0.0, None)
+    if shape.size < 4:
+        return None
+    shape = np.convolve(shape, np.ones(3) / 3.0, mode="same")
+    return shape / shape.max() if shape.max() > 0 else None
+
+
+def _placed(shape: np.ndarray, n: int, first: np.ndarray) -> np.ndarray:
+    """Columns (``n`` bins each) holding ``shape`` starting at bins ``first`` (any integer,
+    also negative or past the end: only the overlap is kept)."""
+    rows = np.arange(n)[:, None] - np.asarray(first)[None, :]
+    inside = (rows >= 0) & (rows < shape.size)
+    return np.where(inside, shape[np.clip(rows, 0, shape.size - 1)], 0.0)
+
+
+def profile(power: np.ndarray, shape: np.ndarray, earlier: np.ndarray, trials: np.ndarray
+            ) -> np.ndarray:
+    """Log likelihood (up to a constant) of each trial onset bin for the sound in ``power``.
+
+    Parameters
+    ----------
+    power
+        The power envelope over the fitted stretch.
+    shape
+        The template.
+    earlier
+        Onset bins (relative to ``power``) of the earlier bounces whose sound is modelled.
+    trials
+        Trial onset bins of this bounce.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``-chi2 / 2`` at each trial, scaled by the dispersion of the best fit's residuals;
+        a trial whose best amplitude would be negative gets the background-only fit.
+    """
+    n = power.size
+    base = np.column_stack([np.ones(n), np.linspace(-1.0, 1.0, n),
+                            _placed(shape, n, earlier)])
+    # Weights 1 / P^2 from the locally smoothed power (the data, not the trial's model, so
+    # every trial is weighted alike and the fits are linear).
+    smooth = np.convolve(power, np.ones(5) / 5.0, mode="same")
+    root = 1.0 / np.maximum(smooth, 1e-3 * max(float(power.mean()), 1e-300))
+    bw = base * root[:, None]
+    yw = power * root
+    cw = _placed(shape, n, trials) * root[:, None]
+    gram_inv = np.linalg.pinv(bw.T @ bw)
+    by = bw.T @ yw
+    beta = gram_inv @ by
+    sse0 = max(float(yw @ yw - by @ beta), 0.0)
+    g = bw.T @ cw
+    # The trial column's part not explained by the background (Schur complement).
+    s = np.einsum("ij,ij->j", cw, cw) - np.einsum("ij,ik,kj->j", g, gram_inv, g)
+    proj = cw.T @ yw - g.T @ beta
+    gain = np.where((s > 1e-12 * np.maximum(np.einsum("ij,ij->j", cw, cw), 1e-300))
+                    & (proj > 0), proj**2 / np.maximum(s, 1e-300), 0.0)
+    sse = np.maximum(sse0 - gain, 0.0)
+    best = float(sse.min())
+    dof = max(n - base.shape[1] - 1, 1)
+    dispersion = dof / best if best > 0 else 1.0
+    return -0.5 * dispersion * (sse - best)
+
+
+def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
+                       sample_rate: int, ba: tuple[np.ndarray, np.ndarray], settle: int
+                       ) -> tuple[np.ndarray, ...]:
+    """Move the onsets that the roll's envelope strongly places elsewhere (module docstring).
+
+    Parameters
+    ----------
+    columns
+        Time (s, absolute), amplitude, SNR (dB) and sigma (s) of the roll's onsets.
+    x, start
+        Raw samples around the roll; ``x[0]`` is absolute sample ``start``.
+    sample_rate, ba, settle
+        As :func:`~.candidates.refine_window` needs them.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The four columns, with the moved onsets refined again.
+    """
+    times, amplitude, snr_db, sigma = (np.array(c, dtype=float) for c in columns)
+    if times.size < 2:
+        return times, amplitude, snr_db, sigma
+    sr = sample_rate
+    power, width = power_envelope(x, sr)
+    pos = times * sr - start  # sample positions in x
+    loudest = int(np.argmax(amplitude))
+    first_bin = int(pos[loudest] // width)
+    offset = pos[loudest] - first_bin * width  # where in its bin the template's onset lies
+    end = pos[loudest + 1] - 0.001 * sr if loudest + 1 < times.size else math.inf
+    shape = template(power, first_bin, int(min(end - pos[loudest], _TEMPLATE_S * sr) // width))
+    if shape is None:
+        return times, amplitude, snr_db, sigma
+    peak_bins = int(np.argmax(shape))
+    before, after_peak, margin = (round(v / (width / sr)) for v in (_BEFORE_S, _AFTER_S,
+                                                                    _MARGIN_S))
+    for k in range(1, times.size):
+        if k == loudest:
+            continue
+        flight_bins = (pos[k] - pos[k - 1]) / width
+        # A faint bounce shows up at the latest where its sound peaks; never look back past
+        # the middle of its flight.
+        back = min(peak_bins + margin, int(0.5 * flight_bins))
+        here = (pos[k] - offset) / width  # this onset on the template's bin grid
+        lo = int(max(math.floor(here) - back - before, (pos[k - 1] - offset) / width + margin,
+                     0))
+        # The next bounce's sound is not modelled: stop before it.
+        nxt = pos[k + 1] if k + 1 < times.size else math.inf
+        hi = int(min(math.floor(here) + peak_bins + after_peak, (nxt - offset) / width - 2,
+                     power.size))
+        trials = np.arange(max(math.floor(here) - back, lo + 1), math.floor(here) + margin + 1)
+        if trials.size < 2 or hi - lo < 8:
+            continue
+        prev = (pos[max(k - _EARLIER, 0): k] - offset) // width - lo
+        ll = profile(power[lo:hi], shape, prev.astype(int), trials - lo)
+        # The envelope has a bin's resolution: it speaks only to places further from the
+        # onset than a bin and twice the onset's own uncertainty.
+        reach = 1.0 + 2.0 * sigma[k] * sr / width
+        if ll[np.abs(trials - here) <= reach].max(initial=-np.inf) >= -STRONG:
+            continue
+        best = int(trials[np.argmax(ll)])
+        guess = round(start + best * width + offset)
+        fit = max(64, min(round(0.006 * sr), round(0.4 * flight_bins * width)))
+        r = refine_window(x, start, guess, sr, ba, settle, pre=width + fit,
+                          post=round(0.002 * sr), search=width, search_after=width)
+        weight = np.exp(ll - ll.max())
+        spread = float(np.sqrt(np.sum(weight * (trials - best) ** 2) / weight.sum())) * width
+        times[k] = r.sample / sr
+        pos[k] = r.sample - start
+        amplitude[k], snr_db[k] = r.amplitude, r.snr_db
+        sigma[k] = math.hypot(r.sigma_s, max(spread, width / math.sqrt(12.0)) / sr)
+    return times, amplitude, snr_db, sigma
