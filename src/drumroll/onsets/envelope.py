@@ -19,14 +19,16 @@ this bounce's at a trial onset ``s``: weighted least squares with weights ``1 / 
 averaged over a bin scatters in proportion to its mean), the dispersion measured from the best
 fit's residuals. The profile likelihood over ``s`` says where the impact's *whole* sound fits.
 
-An onset is moved only when the envelope rules its place out strongly: a log likelihood
-ratio of at least :data:`STRONG` (3: odds of about 20, "strong" on Kass & Raftery's scale)
-between the best trial onset and every place within a bin and two ``sigma_s`` of the onset
-(the envelope's resolution is a bin: it has nothing to say about finer timing). The onset is
-then placed by the change point within a bin of the best trial onset, and its ``sigma_s``
-includes the spread of the envelope's likelihood. Where a sound starts at its loudest (a
-click, a ball on a table) or stands well out of what it lands in, the envelope agrees with
-the change point and nothing moves.
+An onset is moved only when the envelope strongly prefers "elsewhere" to "here": the Bayes
+factor of the two, each with a uniform prior over its trial onsets, is at least e^STRONG
+(:data:`STRONG` = 3: odds of about 20, "strong" on Kass & Raftery's scale). "Here" is every
+trial within a bin (the envelope's resolution: it has nothing to say about finer timing) and
+two ``sigma_s`` of the onset. Averaging the likelihood over "elsewhere", rather than taking
+its best trial, charges for having looked at many places: a chance bump in the noise a few
+milliseconds off does not win. The onset is then placed by the change point within a bin of
+the envelope's best trial, and its ``sigma_s`` includes the spread of the envelope's
+likelihood. Where a sound starts at its loudest (a click, a ball on a table) or stands well
+out of what it lands in, the envelope agrees with the change point and nothing moves.
 """
 
 from __future__ import annotations
@@ -46,7 +48,8 @@ BAND_HZ = 1000.0
 #: Width of one envelope bin (seconds): half the detection function's finest hop.
 BIN_S = 0.25e-3
 
-#: Log likelihood ratio at which the envelope overrides the change point.
+#: Log Bayes factor ("elsewhere" against "here") at which the envelope overrides the change
+#: point.
 STRONG = 3.0
 
 #: Earlier bounces whose sound is modelled under a bounce (older ones are background).
@@ -203,8 +206,12 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
         ll = profile(power[lo:hi], shape, prev.astype(int), trials - lo)
         # The envelope has a bin's resolution: it speaks only to places further from the
         # onset than a bin and twice the onset's own uncertainty.
-        reach = 1.0 + 2.0 * sigma[k] * sr / width
-        if ll[np.abs(trials - here) <= reach].max(initial=-np.inf) >= -STRONG:
+        # Here: within a bin (the envelope's resolution) and two sigma of the onset.
+        near = np.abs(trials - here) <= 1.0 + 2.0 * sigma[k] * sr / width
+        if near.all() or not near.any():
+            continue
+        lik = np.exp(ll - ll.max())
+        if math.log(lik[~near].mean() / max(lik[near].mean(), 1e-300)) < STRONG:
             continue
         best = int(trials[np.argmax(ll)])
         guess = round(start + best * width + offset)
