@@ -58,8 +58,9 @@ _EARLIER = 3
 #: Longest stretch of the loudest impact taken as the template (seconds).
 _TEMPLATE_S = 0.2
 
-#: Fitted stretch around an onset (seconds): background before the earliest trial onset,
-#: and sound after the template's peak at the latest one.
+#: Fitted stretch around an onset (seconds): background before the earliest trial onset
+#: (and before the template's impact), and sound after the template's peak at the latest
+#: trial.
 _BEFORE_S, _AFTER_S = 0.02, 0.005
 
 #: Trial onsets reach this far past the template's peak before the onset, and after it.
@@ -77,15 +78,17 @@ def power_envelope(x: np.ndarray, sample_rate: int) -> tuple[np.ndarray, int]:
     return np.mean(np.square(y[: n * width]).reshape(n, width), axis=1), width
 
 
-def template(power: np.ndarray, onset_bin: int, length: int) -> np.ndarray | None:
+def template(power: np.ndarray, onset_bin: int, length: int, before: int
+             ) -> np.ndarray | None:
     """The envelope of the impact starting in ``onset_bin``: its power over ``length`` bins
-    less the median power of the 20 ms before it, scaled to a peak of 1 (None if empty).
+    less the median power of the ``before`` bins before it, scaled to a peak of 1 (None if
+    empty).
 
     One impact's power scatters from bin to bin as the fitted ones' does; a centred
     three-bin mean (0.75 ms, finer than any structure of the sound it needs) keeps the fit
     from matching that scatter to theirs.
     """
-    pre = power[max(onset_bin - 80, 0): onset_bin]
+    pre = power[max(onset_bin - before, 0): onset_bin]
     floor = float(np.median(pre)) if pre.size else 0.0
     shape = np.clip(power[onset_bin: onset_bin + length] - floor, 0.0, None)
     if shape.size < 4:
@@ -178,13 +181,14 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
     loudest = int(np.argmax(amplitude))
     first_bin = int(pos[loudest] // width)
     offset = pos[loudest] - first_bin * width  # where in its bin the template's onset lies
+    before, after_peak, margin = (round(v / (width / sr)) for v in (_BEFORE_S, _AFTER_S,
+                                                                    _MARGIN_S))
     end = pos[loudest + 1] - 0.001 * sr if loudest + 1 < times.size else math.inf
-    shape = template(power, first_bin, int(min(end - pos[loudest], _TEMPLATE_S * sr) // width))
+    shape = template(power, first_bin, int(min(end - pos[loudest], _TEMPLATE_S * sr) // width),
+                     before)
     if shape is None:
         return times, amplitude, snr_db, sigma
     peak_bins = int(np.argmax(shape))
-    before, after_peak, margin = (round(v / (width / sr)) for v in (_BEFORE_S, _AFTER_S,
-                                                                    _MARGIN_S))
     for k in range(1, times.size):
         if k == loudest:
             continue
@@ -204,9 +208,7 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
             continue
         prev = (pos[max(k - _EARLIER, 0): k] - offset) // width - lo
         ll = profile(power[lo:hi], shape, prev.astype(int), trials - lo)
-        # The envelope has a bin's resolution: it speaks only to places further from the
-        # onset than a bin and twice the onset's own uncertainty.
-        # Here: within a bin (the envelope's resolution) and two sigma of the onset.
+        # "Here": within a bin (the envelope's resolution) and two sigma of the onset.
         near = np.abs(trials - here) <= 1.0 + 2.0 * sigma[k] * sr / width
         if near.all() or not near.any():
             continue
@@ -218,8 +220,7 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
         fit = max(64, min(round(0.006 * sr), round(0.4 * flight_bins * width)))
         r = refine_window(x, start, guess, sr, ba, settle, pre=width + fit,
                           post=round(0.002 * sr), search=width, search_after=width)
-        weight = np.exp(ll - ll.max())
-        spread = float(np.sqrt(np.sum(weight * (trials - best) ** 2) / weight.sum())) * width
+        spread = float(np.sqrt(np.sum(lik * (trials - best) ** 2) / lik.sum())) * width
         times[k] = r.sample / sr
         pos[k] = r.sample - start
         amplitude[k], snr_db[k] = r.amplitude, r.snr_db
