@@ -11,8 +11,8 @@ import numpy as np
 from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe, read_excerpt
 from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
-from drumroll.onsets.envelope import retime_by_envelope
-from drumroll.onsets.follow import Excerpt, FollowParams, follow
+from drumroll.onsets.envelope import next_by_envelope, retime_by_envelope
+from drumroll.onsets.follow import Excerpt, FollowParams, flight_predictor, follow
 from drumroll.onsets.odf import OdfParams
 from drumroll.onsets.sequence import retime
 from drumroll.onsets.table import OnsetTable
@@ -131,7 +131,10 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
         # ... and against the sound of the roll's loudest impact, which shows where a faint
         # one's sound starts when its first milliseconds are lost in what it lands in.
         cols = retime_by_envelope(cols, ex.x, ex.start, rate, ex.ba, ex.settle)
-    cols = until_a_flight_grows(*cols, keep_at_least=p.min_onsets)
+    # A flight that grows ends the roll: the onsets after it cannot be numbered.
+    cols = until_a_flight_grows(*cols)
+    if ex is not None and 3 <= cols[0].size < p.min_onsets:
+        cols = _complete(cols, ex, p, rate)
     if cols[0].size < p.min_onsets:
         raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
                          f"row, a drumroll needs at least {p.min_onsets}")
@@ -147,8 +150,7 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
                       sample_rate=rate)
 
 
-def until_a_flight_grows(times: np.ndarray, *columns: np.ndarray, keep_at_least: int = 4
-                        ) -> tuple[np.ndarray, ...]:
+def until_a_flight_grows(times: np.ndarray, *columns: np.ndarray) -> tuple[np.ndarray, ...]:
     """The roll up to (not including) the onset that ends the first flight longer than the
     flight before it.
 
@@ -156,7 +158,9 @@ def until_a_flight_grows(times: np.ndarray, *columns: np.ndarray, keep_at_least:
     flight that grows by more than its timing uncertainty means that a bounce between was
     missed (masked, or too faint) or that an onset is wrong. The onsets after it could then
     not be numbered, and a fit would take bounce k + 1 for bounce k: the roll is reported up
-    to the gap. ``columns[-1]`` must be the per-onset timing uncertainty ``sigma_s``.
+    to the gap (and is no roll at all if too few onsets are left: flights that grow from the
+    start are unrelated sounds). ``columns[-1]`` must be the per-onset timing uncertainty
+    ``sigma_s``.
     """
     sigma = columns[-1]
     flights = np.diff(times)
@@ -167,8 +171,24 @@ def until_a_flight_grows(times: np.ndarray, *columns: np.ndarray, keep_at_least:
     grows = np.flatnonzero(flights[1:] - flights[:-1] > 3.0 * spread)
     if grows.size == 0:
         return (times, *columns)
-    keep = max(int(grows[0]) + 2, min(keep_at_least, times.size))
-    return tuple(col[:keep] for col in (times, *columns))
+    return tuple(col[: int(grows[0]) + 2] for col in (times, *columns))
+
+
+def _complete(cols: tuple[np.ndarray, ...], ex: Excerpt, p: TrackParams, rate: int
+              ) -> tuple[np.ndarray, ...]:
+    """A roll of three onsets (two flights: one ratio, nothing to test it with) completed
+    by bounces found by their whole sound where the flight law puts them
+    (:func:`~.envelope.next_by_envelope`), up to the fewest onsets that make a roll."""
+    while cols[0].size < p.min_onsets:
+        predict = flight_predictor(cols[0], cols[3], FollowParams(ratio_jitter=p.ratio_jitter))
+        if predict is None:
+            break
+        dt, s_log = predict(1)
+        found = next_by_envelope(cols, ex.x, ex.start, rate, ex.ba, ex.settle, dt, s_log * dt)
+        if found is None:
+            break
+        cols = found
+    return cols
 
 
 #: Candidates this close to a reported onset are that onset.

@@ -29,11 +29,20 @@ milliseconds off does not win. The onset is then placed by the change point with
 the envelope's best trial, and its ``sigma_s`` includes the spread of the envelope's
 likelihood. Where a sound starts at its loudest (a click, a ball on a table) or stands well
 out of what it lands in, the envelope agrees with the change point and nothing moves.
+
+The same fit finds a bounce that the waveform searches miss (:func:`next_by_envelope`). A
+roll of three onsets has one flight ratio and nothing to test it with, so it is no roll;
+its fourth bounce, if the three are a roll, lies where the flight law puts it, and its whole
+sound (tens of milliseconds of it) can stand out where its first milliseconds do not. The
+Bayes factor of "a bounce there, its onset drawn from the law's prediction and its amplitude
+up to the last bounce's" against "no bounce" (the likelihood ratio with the amplitude's
+Occam factor, averaged over the prediction) must again be at least e^STRONG.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
@@ -105,8 +114,8 @@ def _placed(shape: np.ndarray, n: int, first: np.ndarray) -> np.ndarray:
     return np.where(inside, shape[np.clip(rows, 0, shape.size - 1)], 0.0)
 
 
-def profile(power: np.ndarray, shape: np.ndarray, earlier: np.ndarray, trials: np.ndarray
-            ) -> np.ndarray:
+def profile(power: np.ndarray, shape: np.ndarray, earlier: np.ndarray, trials: np.ndarray,
+            against_none: float | None = None) -> np.ndarray:
     """Log likelihood (up to a constant) of each trial onset bin for the sound in ``power``.
 
     Parameters
@@ -119,12 +128,16 @@ def profile(power: np.ndarray, shape: np.ndarray, earlier: np.ndarray, trials: n
         Onset bins (relative to ``power``) of the earlier bounces whose sound is modelled.
     trials
         Trial onset bins of this bounce.
+    against_none
+        If given, the largest amplitude (template units) the bounce may have: the result is
+        then each trial's log Bayes factor against "no bounce" instead.
 
     Returns
     -------
     numpy.ndarray
-        ``-chi2 / 2`` at each trial, scaled by the dispersion of the best fit's residuals;
-        a trial whose best amplitude would be negative gets the background-only fit.
+        ``-chi2 / 2`` at each trial less its best value, scaled by the dispersion of the
+        best fit's residuals (a trial whose best amplitude would be negative gets the
+        background-only fit); or the log Bayes factors.
     """
     n = power.size
     base = np.column_stack([np.ones(n), np.linspace(-1.0, 1.0, n),
@@ -150,7 +163,51 @@ def profile(power: np.ndarray, shape: np.ndarray, earlier: np.ndarray, trials: n
     best = float(sse.min())
     dof = max(n - base.shape[1] - 1, 1)
     dispersion = dof / best if best > 0 else 1.0
+    if against_none is not None:
+        # Laplace approximation of the Bayes factor "a bounce at s" against "none", the
+        # amplitude uniform between 0 and ``against_none`` (a bounce is not louder than
+        # the one before it): the likelihood ratio times the Occam factor
+        # sqrt(2 pi) sd(a) / a_max.
+        sd_a = 1.0 / np.sqrt(dispersion * np.maximum(s, 1e-300))
+        occam = np.log(np.sqrt(2 * np.pi) * sd_a / max(against_none, 1e-300))
+        return np.where(gain > 0, 0.5 * dispersion * gain + np.minimum(occam, 0.0), 0.0)
     return -0.5 * dispersion * (sse - best)
+
+
+@dataclass
+class _Roll:
+    """The roll's power envelope (bins of ``width`` samples), its onsets' sample positions
+    ``pos`` in the excerpt, and the template from its loudest impact (whose onset lies
+    ``offset`` samples into its bin; the template peaks ``peak_bins`` after it); the fitted
+    windows' lengths in bins."""
+
+    power: np.ndarray
+    width: int
+    pos: np.ndarray
+    loudest: int
+    offset: float
+    shape: np.ndarray
+    peak_bins: int
+    before: int
+    after_peak: int
+    margin: int
+
+    @classmethod
+    def of(cls, times: np.ndarray, amplitude: np.ndarray, x: np.ndarray, start: int,
+           sr: int) -> _Roll | None:
+        power, width = power_envelope(x, sr)
+        pos = times * sr - start  # sample positions in x
+        loudest = int(np.argmax(amplitude))
+        first_bin = int(pos[loudest] // width)
+        before, after_peak, margin = (round(v / (width / sr)) for v in (_BEFORE_S, _AFTER_S,
+                                                                        _MARGIN_S))
+        end = pos[loudest + 1] - 0.001 * sr if loudest + 1 < times.size else math.inf
+        length = int(min(end - pos[loudest], _TEMPLATE_S * sr) // width)
+        shape = template(power, first_bin, length, before)
+        if shape is None:
+            return None
+        return cls(power, width, pos, loudest, pos[loudest] - first_bin * width, shape,
+                   int(np.argmax(shape)), before, after_peak, margin)
 
 
 def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
@@ -176,19 +233,12 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
     if times.size < 2:
         return times, amplitude, snr_db, sigma
     sr = sample_rate
-    power, width = power_envelope(x, sr)
-    pos = times * sr - start  # sample positions in x
-    loudest = int(np.argmax(amplitude))
-    first_bin = int(pos[loudest] // width)
-    offset = pos[loudest] - first_bin * width  # where in its bin the template's onset lies
-    before, after_peak, margin = (round(v / (width / sr)) for v in (_BEFORE_S, _AFTER_S,
-                                                                    _MARGIN_S))
-    end = pos[loudest + 1] - 0.001 * sr if loudest + 1 < times.size else math.inf
-    shape = template(power, first_bin, int(min(end - pos[loudest], _TEMPLATE_S * sr) // width),
-                     before)
-    if shape is None:
+    roll = _Roll.of(times, amplitude, x, start, sr)
+    if roll is None:
         return times, amplitude, snr_db, sigma
-    peak_bins = int(np.argmax(shape))
+    power, width, pos, offset, shape = roll.power, roll.width, roll.pos, roll.offset, roll.shape
+    loudest, peak_bins = roll.loudest, roll.peak_bins
+    before, after_peak, margin = roll.before, roll.after_peak, roll.margin
     for k in range(1, times.size):
         if k == loudest:
             continue
@@ -226,3 +276,59 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
         amplitude[k], snr_db[k] = r.amplitude, r.snr_db
         sigma[k] = math.hypot(r.sigma_s, max(spread, width / math.sqrt(12.0)) / sr)
     return times, amplitude, snr_db, sigma
+
+
+def next_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
+                     sample_rate: int, ba: tuple[np.ndarray, np.ndarray], settle: int,
+                     dt: float, sd: float) -> tuple[np.ndarray, ...] | None:
+    """The next bounce after the roll ``columns``, looked for by its whole sound where the
+    flight law puts it (``dt`` after the last onset, Gaussian with sd ``sd``, seconds).
+
+    The Bayes factor of "a bounce whose sound is the template, at an onset drawn from the
+    prediction, with an amplitude up to the last bounce's" against "no bounce" must be
+    at least e^STRONG. Returns the columns with the bounce appended, or None.
+    """
+    times, amplitude, snr_db, sigma = (np.array(c, dtype=float) for c in columns)
+    sr = sample_rate
+    roll = _Roll.of(times, amplitude, x, start, sr)
+    if roll is None:
+        return None
+    power, width, pos, offset, shape = roll.power, roll.width, roll.pos, roll.offset, roll.shape
+    peak_bins, before, after_peak, margin = roll.peak_bins, roll.before, roll.after_peak, \
+        roll.margin
+    last = (pos[-1] - offset) / width
+    mean, spread = dt * sr / width, sd * sr / width
+    t_lo = max(math.floor(last + mean - 3 * spread), math.ceil(last + 0.5 * mean))
+    # Flights do not grow.
+    t_hi = math.floor(min(last + mean + 3 * spread, last + (pos[-1] - pos[-2]) / width))
+    lo = int(max(t_lo - before, last + margin, 0))
+    hi = int(min(t_hi + peak_bins + after_peak, power.size))
+    trials = np.arange(max(t_lo, lo + 1), min(t_hi, hi - 4) + 1)
+    if trials.size < 2:
+        return None
+    prev = ((pos[-_EARLIER:] - offset) // width - lo).astype(int)
+    # The last bounce's amplitude in template units: the most this one can have.
+    b0 = int((pos[-1] - offset) // width)
+    stretch = slice(b0, min(b0 + peak_bins + after_peak, power.size))
+    floor = float(np.median(power[max(b0 - before, 0): b0])) if b0 > 0 else 0.0
+    a_max = max(float(np.mean(power[stretch]) - floor), 0.0) / max(
+        float(np.mean(shape[: stretch.stop - stretch.start])), 1e-12)
+    if not a_max > 0:
+        return None
+    log_bf = profile(power[lo:hi], shape, prev, trials - lo, against_none=a_max)
+    prior = -0.5 * ((trials - last - mean) / max(spread, 1.0)) ** 2
+    prior -= np.log(np.sum(np.exp(prior - prior.max()))) + prior.max()
+    post = log_bf + prior
+    total = np.log(np.sum(np.exp(post - post.max()))) + post.max()
+    if total < STRONG:
+        return None
+    best = int(trials[np.argmax(post)])
+    guess = round(start + best * width + offset)
+    fit = max(64, min(round(0.006 * sr), round(0.4 * mean * width)))
+    r = refine_window(x, start, guess, sr, ba, settle, pre=width + fit,
+                      post=round(0.002 * sr), search=width, search_after=width)
+    w = np.exp(post - post.max())
+    spread_s = float(np.sqrt(np.sum(w * (trials - best) ** 2) / w.sum())) * width / sr
+    return (np.append(times, r.sample / sr), np.append(amplitude, r.amplitude),
+            np.append(snr_db, r.snr_db),
+            np.append(sigma, math.hypot(r.sigma_s, max(spread_s, width / sr / math.sqrt(12)))))

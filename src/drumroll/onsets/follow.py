@@ -160,7 +160,7 @@ def follow(times: list[float], sigmas: list[float], ex: Excerpt, p: FollowParams
     tails: dict[tuple[int, int], tuple[float, float, float]] = {}
     ref = _reference_frames(np.asarray(times), ex)
     while len(t) >= 3:
-        pred = _predict(np.asarray(t), np.asarray(sig), p)
+        pred = flight_predictor(np.asarray(t), np.asarray(sig), p)
         if pred is None:
             break
         dt, s_log = pred(1)
@@ -195,7 +195,7 @@ def _reference_frames(t: np.ndarray, ex: Excerpt) -> np.ndarray:
     return ref
 
 
-def _predict(t: np.ndarray, sig: np.ndarray, p: FollowParams):
+def flight_predictor(t: np.ndarray, sig: np.ndarray, p: FollowParams):
     """A function ``n -> (interval to the n-th next onset, its log-scale sigma)`` from a
     straight-line fit to the logarithms of the recent flights, or None."""
     flights = np.diff(t)[-p.history:]
