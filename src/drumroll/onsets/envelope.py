@@ -265,16 +265,9 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
         lik = np.exp(ll - ll.max())
         if math.log(lik[~near].mean() / max(lik[near].mean(), 1e-300)) < STRONG:
             continue
-        best = int(trials[np.argmax(ll)])
-        guess = round(start + best * width + offset)
-        fit = max(64, min(round(0.006 * sr), round(0.4 * flight_bins * width)))
-        r = refine_window(x, start, guess, sr, ba, settle, pre=width + fit,
-                          post=round(0.002 * sr), search=width, search_after=width)
-        spread = float(np.sqrt(np.sum(lik * (trials - best) ** 2) / lik.sum())) * width
-        times[k] = r.sample / sr
-        pos[k] = r.sample - start
-        amplitude[k], snr_db[k] = r.amplitude, r.snr_db
-        sigma[k] = math.hypot(r.sigma_s, max(spread, width / math.sqrt(12.0)) / sr)
+        times[k], amplitude[k], snr_db[k], sigma[k] = _place(
+            roll, trials, lik, x, start, sr, ba, settle, flight_bins * width)
+        pos[k] = times[k] * sr - start
     return times, amplitude, snr_db, sigma
 
 
@@ -322,13 +315,25 @@ def next_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
     total = np.log(np.sum(np.exp(post - post.max()))) + post.max()
     if total < STRONG:
         return None
-    best = int(trials[np.argmax(post)])
-    guess = round(start + best * width + offset)
-    fit = max(64, min(round(0.006 * sr), round(0.4 * mean * width)))
-    r = refine_window(x, start, guess, sr, ba, settle, pre=width + fit,
-                      post=round(0.002 * sr), search=width, search_after=width)
-    w = np.exp(post - post.max())
-    spread_s = float(np.sqrt(np.sum(w * (trials - best) ** 2) / w.sum())) * width / sr
-    return (np.append(times, r.sample / sr), np.append(amplitude, r.amplitude),
-            np.append(snr_db, r.snr_db),
-            np.append(sigma, math.hypot(r.sigma_s, max(spread_s, width / sr / math.sqrt(12)))))
+    found = _place(roll, trials, np.exp(post - post.max()), x, start, sr, ba, settle,
+                   mean * width)
+    return tuple(np.append(col, v) for col, v in zip((times, amplitude, snr_db, sigma), found,
+                                                      strict=True))
+
+
+def _place(roll: _Roll, trials: np.ndarray, weight: np.ndarray, x: np.ndarray, start: int,
+           sr: int, ba: tuple[np.ndarray, np.ndarray], settle: int, flight: float
+           ) -> tuple[float, float, float, float]:
+    """Time (s), amplitude, SNR and sigma of an onset placed by the change point within a
+    bin of the best of the envelope's ``trials`` (``weight``: their likelihood or
+    posterior); sigma includes the spread of that weight. ``flight`` (samples) before the
+    onset bounds the whitening reference, as in :func:`~.sequence.retime`."""
+    width = roll.width
+    best = int(trials[np.argmax(weight)])
+    fit = max(64, min(round(0.006 * sr), round(0.4 * flight)))
+    r = refine_window(x, start, round(start + best * width + roll.offset), sr, ba, settle,
+                      pre=width + fit, post=round(0.002 * sr), search=width,
+                      search_after=width)
+    spread = float(np.sqrt(np.sum(weight * (trials - best) ** 2) / weight.sum())) * width
+    sigma = math.hypot(r.sigma_s, max(spread, width / math.sqrt(12.0)) / sr)
+    return r.sample / sr, r.amplitude, r.snr_db, sigma
