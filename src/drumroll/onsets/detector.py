@@ -132,12 +132,15 @@ def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
         # one's sound starts when its first milliseconds are lost in what it lands in.
         cols = retime_by_envelope(cols, ex.x, ex.start, rate, ex.ba, ex.settle)
     # A flight that grows ends the roll: the onsets after it cannot be numbered.
+    tracked = cols[0].size
     cols = until_a_flight_grows(*cols)
     if ex is not None and 3 <= cols[0].size < p.min_onsets:
         cols = _complete(cols, ex, p, rate)
     if cols[0].size < p.min_onsets:
+        grew = " before a flight longer than the one before it" \
+            if cols[0].size < tracked else ""
         raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
-                         f"row, a drumroll needs at least {p.min_onsets}")
+                         f"row{grew}, a drumroll needs at least {p.min_onsets}")
     times = cols[0]
     near = np.searchsorted(times, c.time_s).clip(1, times.size - 1)
     dist = np.minimum(np.abs(c.time_s - times[near - 1]), np.abs(c.time_s - times[near]))

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
+from scipy.special import logsumexp
 
 from drumroll.onsets.candidates import refine_window
 
@@ -97,13 +98,19 @@ def template(power: np.ndarray, onset_bin: int, length: int, before: int
     three-bin mean (0.75 ms, finer than any structure of the sound it needs) keeps the fit
     from matching that scatter to theirs.
     """
-    pre = power[max(onset_bin - before, 0): onset_bin]
-    floor = float(np.median(pre)) if pre.size else 0.0
-    shape = np.clip(power[onset_bin: onset_bin + length] - floor, 0.0, None)
+    shape = _excess(power, onset_bin, length, before)
     if shape.size < 4:
         return None
     shape = np.convolve(shape, np.ones(3) / 3.0, mode="same")
     return shape / shape.max() if shape.max() > 0 else None
+
+
+def _excess(power: np.ndarray, onset_bin: int, length: int, before: int) -> np.ndarray:
+    """Power over ``length`` bins from ``onset_bin``, less the median power of the ``before``
+    bins before it (what the impact added), clipped at zero."""
+    pre = power[max(onset_bin - before, 0): onset_bin]
+    floor = float(np.median(pre)) if pre.size else 0.0
+    return np.clip(power[onset_bin: onset_bin + length] - floor, 0.0, None)
 
 
 def _placed(shape: np.ndarray, n: int, first: np.ndarray) -> np.ndarray:
@@ -236,28 +243,27 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
     roll = _Roll.of(times, amplitude, x, start, sr)
     if roll is None:
         return times, amplitude, snr_db, sigma
-    power, width, pos, offset, shape = roll.power, roll.width, roll.pos, roll.offset, roll.shape
-    loudest, peak_bins = roll.loudest, roll.peak_bins
-    before, after_peak, margin = roll.before, roll.after_peak, roll.margin
+    power, width, pos, offset = roll.power, roll.width, roll.pos, roll.offset
+    peak_bins, margin = roll.peak_bins, roll.margin
     for k in range(1, times.size):
-        if k == loudest:
+        if k == roll.loudest:
             continue
         flight_bins = (pos[k] - pos[k - 1]) / width
         # A faint bounce shows up at the latest where its sound peaks; never look back past
         # the middle of its flight.
         back = min(peak_bins + margin, int(0.5 * flight_bins))
         here = (pos[k] - offset) / width  # this onset on the template's bin grid
-        lo = int(max(math.floor(here) - back - before, (pos[k - 1] - offset) / width + margin,
+        lo = int(max(math.floor(here) - back - roll.before, (pos[k - 1] - offset) / width + margin,
                      0))
         # The next bounce's sound is not modelled: stop before it.
         nxt = pos[k + 1] if k + 1 < times.size else math.inf
-        hi = int(min(math.floor(here) + peak_bins + after_peak, (nxt - offset) / width - 2,
+        hi = int(min(math.floor(here) + peak_bins + roll.after_peak, (nxt - offset) / width - 2,
                      power.size))
         trials = np.arange(max(math.floor(here) - back, lo + 1), math.floor(here) + margin + 1)
         if trials.size < 2 or hi - lo < 8:
             continue
         prev = (pos[max(k - _EARLIER, 0): k] - offset) // width - lo
-        ll = profile(power[lo:hi], shape, prev.astype(int), trials - lo)
+        ll = profile(power[lo:hi], roll.shape, prev.astype(int), trials - lo)
         # "Here": within a bin (the envelope's resolution) and two sigma of the onset.
         near = np.abs(trials - here) <= 1.0 + 2.0 * sigma[k] * sr / width
         if near.all() or not near.any():
@@ -286,34 +292,29 @@ def next_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
     roll = _Roll.of(times, amplitude, x, start, sr)
     if roll is None:
         return None
-    power, width, pos, offset, shape = roll.power, roll.width, roll.pos, roll.offset, roll.shape
-    peak_bins, before, after_peak, margin = roll.peak_bins, roll.before, roll.after_peak, \
-        roll.margin
+    power, width, pos, offset = roll.power, roll.width, roll.pos, roll.offset
     last = (pos[-1] - offset) / width
     mean, spread = dt * sr / width, sd * sr / width
     t_lo = max(math.floor(last + mean - 3 * spread), math.ceil(last + 0.5 * mean))
     # Flights do not grow.
     t_hi = math.floor(min(last + mean + 3 * spread, last + (pos[-1] - pos[-2]) / width))
-    lo = int(max(t_lo - before, last + margin, 0))
-    hi = int(min(t_hi + peak_bins + after_peak, power.size))
+    lo = int(max(t_lo - roll.before, last + roll.margin, 0))
+    hi = int(min(t_hi + roll.peak_bins + roll.after_peak, power.size))
     trials = np.arange(max(t_lo, lo + 1), min(t_hi, hi - 4) + 1)
     if trials.size < 2:
         return None
     prev = ((pos[-_EARLIER:] - offset) // width - lo).astype(int)
     # The last bounce's amplitude in template units: the most this one can have.
-    b0 = int((pos[-1] - offset) // width)
-    stretch = slice(b0, min(b0 + peak_bins + after_peak, power.size))
-    floor = float(np.median(power[max(b0 - before, 0): b0])) if b0 > 0 else 0.0
-    a_max = max(float(np.mean(power[stretch]) - floor), 0.0) / max(
-        float(np.mean(shape[: stretch.stop - stretch.start])), 1e-12)
+    added = _excess(power, int((pos[-1] - offset) // width), roll.peak_bins + roll.after_peak,
+                    roll.before)
+    a_max = float(added.mean()) / max(float(roll.shape[: added.size].mean()), 1e-12) \
+        if added.size else 0.0
     if not a_max > 0:
         return None
-    log_bf = profile(power[lo:hi], shape, prev, trials - lo, against_none=a_max)
+    log_bf = profile(power[lo:hi], roll.shape, prev, trials - lo, against_none=a_max)
     prior = -0.5 * ((trials - last - mean) / max(spread, 1.0)) ** 2
-    prior -= np.log(np.sum(np.exp(prior - prior.max()))) + prior.max()
-    post = log_bf + prior
-    total = np.log(np.sum(np.exp(post - post.max()))) + post.max()
-    if total < STRONG:
+    post = log_bf + prior - logsumexp(prior)
+    if logsumexp(post) < STRONG:
         return None
     found = _place(roll, trials, np.exp(post - post.max()), x, start, sr, ba, settle,
                    mean * width)
