@@ -5,6 +5,11 @@ set-up and the recording; the ``[stick]`` section and ``gravity_m_s2`` are share
 fit. The truth (impact times as placed in the file, speeds, per-impact local SNR, spurious
 events, every parameter, the seed, the sample rate, the drumroll version) goes to a JSON
 file beside the recording, or to ``--truth``.
+
+With ``hits`` in the section the impacts are recorded hits
+(:func:`~drumroll.simulation.render_hits`; the truth adds the files, each impact's velocity
+layer and level), and ``room = "file"`` is a measured room; their file names are relative to
+the config file's folder.
 """
 
 from __future__ import annotations
@@ -51,8 +56,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``simulate``."""
-    from drumroll.simulation import render  # the simulator: imported only when needed
-    from drumroll.simulation.settings import true_impacts
+    # The simulator: imported only when needed.
+    from drumroll.simulation import render, render_hits
+    from drumroll.simulation.settings import load_recorded, true_impacts
 
     output = Path(args.output)
     container = CONTAINERS.get(output.suffix.lower())
@@ -70,6 +76,10 @@ def run(args: argparse.Namespace) -> int:
     if config.stick is None:
         raise ConfigError(f"{args.config}: stick: missing section (the simulation needs the "
                           "stick's shape and size)")
+    try:
+        sources = load_recorded(settings, Path(args.config).parent)
+    except ConfigError as exc:
+        raise ConfigError(f"{args.config}: {exc}") from None
     subtype = _subtype(container, settings, output)
     check_writable(output, overwrite=args.force)  # fail before the work, not after it
     check_writable(truth_path, overwrite=args.force)
@@ -83,10 +93,19 @@ def run(args: argparse.Namespace) -> int:
         roll = true_impacts(settings, stick, config.gravity, rng_roll)
     except ConfigError as exc:
         raise ConfigError(f"{args.config}: {exc}") from None
-    rendering = render(roll["times_s"], roll["speeds_m_s"], sample_rate=settings.sample_rate,
-                       drum=settings.drum, room=settings.room,
-                       disturbances=settings.disturbances, channels=settings.channels,
-                       rng=rng_sound, peak_dbfs=settings.peak_dbfs)
+    room = settings.room if sources.room is None else sources.room
+    if sources.bank is not None:
+        rendering = render_hits(roll["times_s"], roll["speeds_m_s"], bank=sources.bank,
+                                room=room, disturbances=settings.disturbances,
+                                channels=settings.channels, extra_hits=sources.extra_hits,
+                                rng=rng_sound, peak_dbfs=settings.peak_dbfs,
+                                clip_db=settings.clip_db)
+    else:
+        rendering = render(roll["times_s"], roll["speeds_m_s"],
+                           sample_rate=settings.sample_rate, drum=settings.drum, room=room,
+                           disturbances=settings.disturbances, channels=settings.channels,
+                           rng=rng_sound, peak_dbfs=settings.peak_dbfs,
+                           clip_db=settings.clip_db)
     truth = {
         "drumroll_version": __version__,
         "seed": seed,

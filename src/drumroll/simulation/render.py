@@ -3,7 +3,9 @@
 The mixture of one channel is ``room(sum of all impacts and spurious events) + noise + hum``:
 every impact keeps ringing under the later ones, the room's echo and reverberation apply to
 all of them, and the noise and hum are independent of the sound. The file is then scaled so
-its peak sits at ``peak_dbfs``.
+its peak sits at ``peak_dbfs`` or, with ``clip_db``, driven that far above ``peak_dbfs`` and
+clipped there (see :func:`level_and_clip`). The room is a synthetic :class:`Room` or a
+:class:`~drumroll.simulation.measured_room.MeasuredRoom`.
 
 Truth conventions
 -----------------
@@ -16,12 +18,17 @@ Truth conventions
   high-pass at 1.5 kHz, over the energy of everything else in channel 0 in the same window
   and band (earlier impacts' ringing, the echo and reverberation of all sounds, the noise,
   the hum, spurious events). It is computed exactly, by rendering the impact alone over that
-  window, before scaling and quantisation; it is capped at +-200 dB.
+  window, before scaling, clipping and quantisation; it is capped at +-200 dB.
+
+:func:`~drumroll.simulation.render_hits.render_hits` makes the same kind of recording from
+recorded hits and keeps these conventions.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import signal
@@ -33,7 +40,14 @@ from drumroll.simulation.disturbances import (
     mains_hum,
     plan_spurious,
 )
-from drumroll.simulation.room import Room, apply_room, draw_echo_delay, room_response
+from drumroll.simulation.measured_room import MeasuredRoom
+from drumroll.simulation.room import (
+    Room,
+    RoomResponse,
+    apply_room,
+    draw_echo_delay,
+    room_response,
+)
 from drumroll.simulation.sounds import DrumSound, ImpactSynth
 
 #: Window and high-pass corner of the local SNR (see the module docstring).
@@ -71,6 +85,9 @@ class Rendering:
         Each channel's echo delay, or ``None`` without an echo.
     channel_delays_s, channel_gains
         Each channel's delay and gain relative to channel 0.
+    details
+        What else a renderer reports (e.g. the recorded hits' files, layers and levels, the
+        clipping), added to :meth:`truth` as is.
     """
 
     samples: np.ndarray = field(repr=False)
@@ -86,6 +103,7 @@ class Rendering:
     echo_delay_s: tuple[float, ...] | None
     channel_delays_s: tuple[float, ...]
     channel_gains: tuple[float, ...]
+    details: dict[str, Any] = field(default_factory=dict)
 
     @property
     def duration_s(self) -> float:
@@ -114,6 +132,7 @@ class Rendering:
             "echo_delay_s": None if self.echo_delay_s is None else list(self.echo_delay_s),
             "channel_delays_s": list(self.channel_delays_s),
             "channel_gains": list(self.channel_gains),
+            **self.details,
         }
 
 
@@ -121,9 +140,10 @@ _DRUM, _ROOM, _DISTURBANCES = DrumSound(), Room(), Disturbances()
 
 
 def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
-           drum: DrumSound = _DRUM, room: Room = _ROOM,
+           drum: DrumSound = _DRUM, room: Room | MeasuredRoom = _ROOM,
            disturbances: Disturbances = _DISTURBANCES, channels: int = 1,
-           rng: np.random.Generator, peak_dbfs: float = -1.0) -> Rendering:
+           rng: np.random.Generator, peak_dbfs: float = -1.0,
+           clip_db: float | None = None) -> Rendering:
     """Render a drumroll recording with known impact times.
 
     Parameters
@@ -136,7 +156,8 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
     sample_rate
         Samples per second.
     drum, room, disturbances
-        The instrument, the room, and what else the microphone hears.
+        The instrument, the room (synthetic, or measured at ``sample_rate``), and what else
+        the microphone hears.
     channels
         Number of channels (1 or more); channels differ slightly in delay and gain and have
         independent noise and reverberation.
@@ -144,6 +165,9 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
         All randomness comes from here: the same generator state gives the same recording.
     peak_dbfs
         Peak level of the result (dB re full scale, at most 0).
+    clip_db
+        ``None`` or 0: no clipping; else drive the peak this many dB above ``peak_dbfs`` and
+        clip at ``peak_dbfs`` (see :func:`level_and_clip`).
 
     Returns
     -------
@@ -152,7 +176,10 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
     """
     times = np.asarray(impact_times_s, dtype=float)
     speeds = np.asarray(impact_speeds_m_s, dtype=float)
-    _check_inputs(times, speeds, sample_rate, channels, peak_dbfs)
+    check_inputs(times, speeds, sample_rate, channels, peak_dbfs, clip_db)
+    if isinstance(room, MeasuredRoom) and room.sample_rate != int(sample_rate):
+        raise ValueError(f"the measured room is at {room.sample_rate} Hz, the recording at "
+                         f"{sample_rate} Hz")
     fs = int(sample_rate)
     r_voice, r_stream, r_spur, r_room, r_noise, r_hum, r_chan = rng.spawn(7)
 
@@ -175,7 +202,7 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
 
     delays = np.concatenate([[0.0], r_chan.uniform(0.05e-3, 0.5e-3, channels - 1)])
     gains = np.concatenate([[1.0], 10 ** (r_chan.uniform(-1.5, 1.5, channels - 1) / 20)])
-    echo0 = draw_echo_delay(room, r_room)
+    echo0 = None if isinstance(room, MeasuredRoom) else draw_echo_delay(room, r_room)
     echoes = None if echo0 is None else [echo0, *np.maximum(
         echo0 + r_room.uniform(-0.3e-3, 0.3e-3, channels - 1), 0.5e-3)]
 
@@ -183,6 +210,7 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
     hum = (np.sqrt(p_ref * 10 ** (disturbances.hum_db / 10))
            * mains_hum(n_frames, fs, disturbances, r_hum)) if disturbances.hum_hz else 0.0
     mixes = []
+    wet_gain = 1.0
     for c in range(channels):
         dry = np.zeros(n_frames)
         for v, t in zip(voices, onsets, strict=True):
@@ -190,7 +218,12 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
         for (s, v), t in zip(spur, spur_onsets, strict=True):
             s.add_hit(dry, 0, v, t + delays[c], click_noise, snare_noise)
         dry *= gains[c]
-        response = room_response(room, fs, r_room, None if echoes is None else echoes[c])
+        if isinstance(room, MeasuredRoom):
+            if c == 0:  # one gain for every channel: the room is one filter
+                wet_gain = room.gain(dry, signal.oaconvolve(dry, room.wet)[:n_frames])
+            response = RoomResponse(wet_gain * room.wet, None)
+        else:
+            response = room_response(room, fs, r_room, None if echoes is None else echoes[c])
         mix = apply_room(dry, response) + hum
         if disturbances.snr_db is not None:
             mix += np.sqrt(p_ref * 10 ** (-disturbances.snr_db / 10)) \
@@ -199,9 +232,7 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
 
     local = _local_snr(mixes[0], synth, voices, onsets, fs, click_noise, snare_noise)
     samples = mixes[0] if channels == 1 else np.stack(mixes, axis=1)
-    peak = float(np.max(np.abs(samples)))
-    scale = 10 ** (peak_dbfs / 20) / peak if peak > 0 else 1.0
-    samples *= scale
+    samples, scale, clipped = level_and_clip(samples, peak_dbfs, clip_db)
     return Rendering(
         samples=samples, sample_rate=fs, impact_times_s=onsets, impact_speeds_m_s=speeds.copy(),
         local_snr_db=local, spurious_times_s=spur_onsets,
@@ -210,10 +241,49 @@ def render(impact_times_s, impact_speeds_m_s, *, sample_rate: int = 44100,
         echo_delay_s=None if echoes is None else tuple(float(e) for e in echoes),
         channel_delays_s=tuple(float(d) for d in delays),
         channel_gains=tuple(float(g) for g in gains),
+        details={**({"measured_room": room.truth(wet_gain)}
+                    if isinstance(room, MeasuredRoom) else {}),
+                 **clip_details(clip_db, clipped)},
     )
 
 
-def _check_inputs(times, speeds, sample_rate, channels, peak_dbfs) -> None:
+def level_and_clip(samples: np.ndarray, peak_dbfs: float, clip_db: float | None
+                   ) -> tuple[np.ndarray, float, int]:
+    """Scale a mixture to its final level, clipping it if asked (in place).
+
+    Without clipping (``clip_db`` None or 0) the peak lands at ``peak_dbfs``. With
+    ``clip_db > 0`` the mixture is scaled so that its peak would lie ``clip_db`` above
+    ``peak_dbfs`` and every sample beyond ``+-10**(peak_dbfs / 20)`` is clipped there, as an
+    overdriven converter (``peak_dbfs = 0``) or a clipping preamplifier does.
+
+    Returns
+    -------
+    samples, scale, clipped
+        The result, the factor applied before clipping, and the number of clipped samples.
+    """
+    peak = float(np.max(np.abs(samples)))
+    drive = peak_dbfs + (clip_db or 0.0)
+    scale = 10 ** (drive / 20) / peak if peak > 0 else 1.0
+    samples *= scale
+    clipped = 0
+    if clip_db:
+        ceiling = 10 ** (peak_dbfs / 20)
+        over = np.abs(samples) > ceiling
+        clipped = int(np.count_nonzero(over))
+        np.clip(samples, -ceiling, ceiling, out=samples)
+    return samples, scale, clipped
+
+
+def clip_details(clip_db: float | None, clipped: int) -> dict[str, Any]:
+    """The truth's record of the clipping (empty without clipping)."""
+    if not clip_db:
+        return {}
+    return {"clip_db": float(clip_db), "clipped_samples": int(clipped)}
+
+
+def check_inputs(times: np.ndarray, speeds: np.ndarray, sample_rate: int, channels: int,
+                 peak_dbfs: float, clip_db: float | None = None) -> None:
+    """Validate a renderer's common arguments (``ValueError`` naming the argument)."""
     if times.ndim != 1 or times.size == 0 or times.shape != speeds.shape:
         raise ValueError("impact_times_s and impact_speeds_m_s must be non-empty 1-D arrays "
                          "of the same length")
@@ -227,6 +297,8 @@ def _check_inputs(times, speeds, sample_rate, channels, peak_dbfs) -> None:
         raise ValueError(f"channels must be 1..8, got {channels!r}")
     if not peak_dbfs <= 0:
         raise ValueError(f"peak_dbfs must be <= 0, got {peak_dbfs!r}")
+    if clip_db is not None and not 0 <= clip_db <= 60:
+        raise ValueError(f"clip_db must be in [0, 60] dB or None, got {clip_db!r}")
 
 
 def _own_sound(synth, voice, onset, fs, length, click_noise, snare_noise) -> tuple[int, np.ndarray]:
@@ -245,15 +317,34 @@ def _reference_power(synth, voices, onsets, fs, click_noise, snare_noise) -> flo
 
 
 def _local_snr(mix, synth, voices, onsets, fs, click_noise, snare_noise) -> np.ndarray:
-    sos = signal.butter(4, LOCAL_SNR_HIGHPASS_HZ, btype="highpass", fs=fs, output="sos")
-    mix_hp = signal.sosfilt(sos, mix)
     n = max(1, round(LOCAL_SNR_WINDOW_S * fs))
-    out = np.empty(len(voices))
-    for k, (v, t) in enumerate(zip(voices, onsets, strict=True)):
-        n0, own = _own_sound(synth, v, t, fs, n, click_noise, snare_noise)
+    owns = [_own_sound(synth, v, t, fs, n, click_noise, snare_noise)
+            for v, t in zip(voices, onsets, strict=True)]
+    return local_snr(mix, owns, fs)
+
+
+def local_snr(mix: np.ndarray, owns: Sequence[tuple[int, np.ndarray]],
+              sample_rate: int) -> np.ndarray:
+    """Each impact's local SNR in channel 0 (see the module docstring).
+
+    Parameters
+    ----------
+    mix
+        Channel 0's whole mixture, before scaling.
+    owns
+        Per impact, its first sample ``n0`` and its own direct sound alone over the
+        :data:`LOCAL_SNR_WINDOW_S` from ``n0`` (exactly zero before ``n0``).
+    sample_rate
+        Samples per second.
+    """
+    sos = signal.butter(4, LOCAL_SNR_HIGHPASS_HZ, btype="highpass", fs=sample_rate,
+                        output="sos")
+    mix_hp = signal.sosfilt(sos, mix)
+    out = np.empty(len(owns))
+    for k, (n0, own) in enumerate(owns):
         # Own sound is zero before n0, so a filter started there from rest is exact.
         own_hp = signal.sosfilt(sos, own)
-        other = mix_hp[n0:n0 + n] - own_hp[:len(mix_hp) - n0]
+        other = mix_hp[n0:n0 + len(own)] - own_hp[:len(mix_hp) - n0]
         e_own, e_other = float(np.sum(own_hp**2)), float(np.sum(other**2))
         if e_other == 0:
             out[k] = _SNR_CAP_DB if e_own > 0 else 0.0

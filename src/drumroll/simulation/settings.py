@@ -28,6 +28,27 @@ Example::
     snr_db = 30                   # false: no background noise
     hum_hz = 50                   # false (the default): no hum
 
+Recorded hits instead of the synthetic drum (then ``[simulate.drum]`` does not apply, nor
+the synthetic ``spurious`` events: use ``extra_hits``), and a measured room instead of the
+synthetic one (a string instead of the ``[simulate.room]`` table)::
+
+    [simulate]
+    hits = ["samples/snare-1.flac", "samples/snare-2.flac"]   # velocity layers, softest first
+    layer_db = 6                  # one layer softer per 6 dB of level drop
+    level_exponent = 1.2          # level = 20 * 1.2 * log10(v / v_max) dB ...
+    level_spread_db = 1.5         # ... plus a Gaussian spread
+    room = "samples/room-ir.flac" # a measured impulse response
+    wet_db = -12                  # its reflections and reverberation re the dry sound
+    clip_db = 6                   # drive 6 dB past peak_dbfs and clip there (any recording)
+    extra_hits = [                # recorded sounds that are not impacts
+      { file = "samples/side-stick.flac", time_s = -0.35, level_db = -6 },
+      { file = "samples/tom.flac", after_last_s = 0.45 },
+    ]
+
+File names are relative to the config file's folder (absolute ones are taken as they are);
+:func:`load_recorded` reads them. See :mod:`drumroll.simulation.hits` and
+:mod:`drumroll.simulation.measured_room` for what the settings mean.
+
 The stick is the config's ``[stick]`` at its nominal (median) dimensions, and g is the
 config's ``gravity_m_s2``.
 """
@@ -39,15 +60,21 @@ import math
 import re
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from drumroll.config.validate import boolean, check_keys, join, number, string, table, type_name
-from drumroll.errors import ConfigError, DrumrollWarning
+from drumroll.errors import AudioError, ConfigError, DrumrollWarning
 from drumroll.simulation.disturbances import Disturbances
 from drumroll.simulation.room import Room
 from drumroll.simulation.sounds import DrumSound
+
+if TYPE_CHECKING:
+    from drumroll.simulation.hits import HitBank
+    from drumroll.simulation.measured_room import MeasuredRoom
+    from drumroll.simulation.render_hits import ExtraHit
 
 #: Forward models that can make a recording's truth (they give impact speeds).
 TRUTH_MODELS = ("pendulum", "small-angle")
@@ -67,8 +94,34 @@ _SCALARS: dict[str, tuple[str, float, bool]] = {
     "peak_dbfs": ("", 1.0, False),
 }
 _OTHER = ("model", "n_bounces", "sample_rate", "subtype", "channels", "seed", "drum", "room",
-          "disturbances")
+          "disturbances", "clip_db")
 _SUBSECTIONS = {"drum": DrumSound, "room": Room, "disturbances": Disturbances}
+# Recorded hits' level keys: key → (default, low, high, the range in words)
+_RECORDED: dict[str, tuple[float, float, float, str]] = {
+    "layer_db": (6.0, 0.0, 60.0, "in (0, 60] dB"),
+    "level_exponent": (1.2, 0.0, 10.0, "in (0, 10]"),
+    "level_spread_db": (1.5, 0.0, 20.0, "in [0, 20] dB"),
+}
+_HITS_KEYS = ("hits", *_RECORDED, "extra_hits")
+_EXTRA_KEYS = ("file", "time_s", "after_last_s", "level_db", "kind")
+#: Most velocity layers a bank may have (a sampled kit has a handful, rarely more than 32).
+MAX_LAYERS = 64
+
+
+@dataclass(frozen=True)
+class ExtraHitSpec:
+    """A recorded sound that is not an impact, as the config names it.
+
+    ``time_s`` counts from the roll's first impact, or from its last with ``after_last``;
+    ``level_db`` is relative to the roll's loudest impact; ``kind`` names it in the truth
+    (empty: the file's name).
+    """
+
+    file: str
+    time_s: float
+    after_last: bool = False
+    level_db: float = 0.0
+    kind: str = ""
 
 
 @dataclass(frozen=True)
@@ -76,7 +129,10 @@ class SimulateSettings:
     """A validated ``[simulate]`` section (SI units).
 
     ``n_bounces`` (rebounds after the first impact) or ``min_tip_speed`` ends the roll; the
-    other is None. ``raw`` is the section as written, for the truth file.
+    other is None. ``hits`` (velocity layers, softest first) selects recorded hits over the
+    synthetic ``drum``, ``room_file`` a measured room over the synthetic ``room``; file names
+    are as written (relative to the config's folder). ``clip_db`` is None for no clipping.
+    ``raw`` is the section as written, for the truth file.
     """
 
     alpha: float
@@ -96,6 +152,14 @@ class SimulateSettings:
     drum: DrumSound = field(default_factory=DrumSound)
     room: Room = field(default_factory=Room)
     disturbances: Disturbances = field(default_factory=Disturbances)
+    hits: tuple[str, ...] = ()
+    layer_db: float = 6.0
+    level_exponent: float = 1.2
+    level_spread_db: float = 1.5
+    extra_hits: tuple[ExtraHitSpec, ...] = ()
+    room_file: str | None = None
+    wet_db: float = -12.0
+    clip_db: float | None = None
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def describe(self) -> dict[str, Any]:
@@ -107,8 +171,17 @@ class SimulateSettings:
             "timing_jitter_ms": self.timing_jitter * 1e3, "n_bounces": self.n_bounces,
             "min_tip_speed_m_s": self.min_tip_speed, "sample_rate": self.sample_rate,
             "subtype": self.subtype, "channels": self.channels, "peak_dbfs": self.peak_dbfs,
-            "drum": _plain(self.drum), "room": _plain(self.room),
+            **({"hits": list(self.hits), "layer_db": self.layer_db,
+                "level_exponent": self.level_exponent, "level_spread_db": self.level_spread_db,
+                "extra_hits": [{"file": x.file,
+                                ("after_last_s" if x.after_last else "time_s"): x.time_s,
+                                "level_db": x.level_db, "kind": x.kind}
+                               for x in self.extra_hits]}
+               if self.hits else {"drum": _plain(self.drum)}),
+            **({"room": self.room_file, "wet_db": self.wet_db} if self.room_file
+               else {"room": _plain(self.room)}),
             "disturbances": _plain(self.disturbances),
+            **({"clip_db": self.clip_db} if self.clip_db else {}),
         }
 
 
@@ -126,7 +199,7 @@ def parse_simulate(section: dict[str, Any], where: str = "simulate") -> Simulate
         One line naming the key: unknown keys (with a suggestion), missing truth values,
         wrong types, values out of range.
     """
-    check_keys(section, (*_SCALARS, *_OTHER), where)
+    check_keys(section, (*_SCALARS, *_OTHER, *_HITS_KEYS, "wet_db"), where)
     values: dict[str, Any] = {}
     for key, (description, to_si, required) in _SCALARS.items():
         if key not in section:
@@ -161,9 +234,21 @@ def parse_simulate(section: dict[str, Any], where: str = "simulate") -> Simulate
     seed = section.get("seed")
     if seed is not None:
         seed = int(number(seed, join(where, "seed"), integer=True, nonnegative=True))
+    room_file = _room_file(section, where)
+    recorded = _parse_recorded(section, where)
     parts = {name: _parse_dataclass(cls, table(section.get(name, {}), join(where, name)),
                                     join(where, name))
-             for name, cls in _SUBSECTIONS.items()}
+             for name, cls in _SUBSECTIONS.items() if not (name == "room" and room_file)}
+    if recorded and parts["disturbances"].spurious:
+        raise ConfigError(f"{join(where, 'disturbances.spurious')}: the synthetic tap and knock "
+                          f"need the synthetic drum; with {join(where, 'hits')} give "
+                          f"{join(where, 'extra_hits')} instead")
+    clip_db = section.get("clip_db")
+    if clip_db is not None:
+        clip_db = float(number(clip_db, join(where, "clip_db")))
+        if not 0 <= clip_db <= 60:
+            raise ConfigError(f"{join(where, 'clip_db')}: must lie in [0, 60] dB (0: no "
+                              f"clipping), got {section['clip_db']!r}")
     return SimulateSettings(
         alpha=alpha, pivot=values["pivot_mm"], height=values["height_mm"],
         model=string(section.get("model", "pendulum"), join(where, "model"), TRUTH_MODELS),
@@ -173,8 +258,179 @@ def parse_simulate(section: dict[str, Any], where: str = "simulate") -> Simulate
         min_tip_speed=min_speed, sample_rate=sample_rate,
         subtype=string(section.get("subtype", "PCM_16"), join(where, "subtype"), SUBTYPES),
         channels=channels, peak_dbfs=values.get("peak_dbfs", -1.0), seed=seed,
-        raw=dict(section), **parts,
+        room_file=room_file, wet_db=_wet_db(section, room_file, where), clip_db=clip_db or None,
+        raw=dict(section), **parts, **recorded,
     )
+
+
+def _room_file(section: dict[str, Any], where: str) -> str | None:
+    """A measured room's file (``room = "ir.flac"``), or None for the synthetic room."""
+    room = section.get("room")
+    key = join(where, "room")
+    if isinstance(room, dict) and "file" in room:
+        raise ConfigError(f"{key}.file: a measured room is given as {key} = \"file\" (a "
+                          "string), not inside the synthetic room's table")
+    if room is None or isinstance(room, dict):
+        return None
+    if not isinstance(room, str):
+        raise ConfigError(f"{key}: expected a file name (a measured room) or a table (a "
+                          f"synthetic room), got {type_name(room)} ({room!r})")
+    if not room.strip():
+        raise ConfigError(f"{key}: empty file name")
+    return room
+
+
+def _wet_db(section: dict[str, Any], room_file: str | None, where: str) -> float:
+    if "wet_db" not in section:
+        return -12.0
+    key = join(where, "wet_db")
+    if room_file is None:
+        raise ConfigError(f"{key}: only for a measured room ({join(where, 'room')} = "
+                          "\"file\"); the synthetic room's table has its own levels")
+    wet = float(number(section["wet_db"], key))
+    if not -120 <= wet <= 40:
+        raise ConfigError(f"{key}: must lie in [-120, 40] dB, got {section['wet_db']!r}")
+    return wet
+
+
+def _parse_recorded(section: dict[str, Any], where: str) -> dict[str, Any]:
+    """The recorded-hit keys as SimulateSettings fields ({} without ``hits``)."""
+    if "hits" not in section:
+        for key in _HITS_KEYS:
+            if key in section:
+                raise ConfigError(f"{join(where, key)}: only with recorded hits "
+                                  f"({join(where, 'hits')} = [\"soft.flac\", ...])")
+        return {}
+    hits = section["hits"]
+    key = join(where, "hits")
+    if isinstance(hits, str):
+        hits = [hits]
+    if not isinstance(hits, list) or not hits:
+        raise ConfigError(f"{key}: expected an array of file names (velocity layers, softest "
+                          f"first), got {hits!r}")
+    if len(hits) > MAX_LAYERS:
+        raise ConfigError(f"{key}: at most {MAX_LAYERS} velocity layers, got {len(hits)}")
+    for i, name in enumerate(hits):
+        if not isinstance(name, str) or not name.strip():
+            raise ConfigError(f"{key}[{i}]: expected a file name, got {name!r}")
+    if "drum" in section:
+        raise ConfigError(f"{join(where, 'drum')}: does not apply with {key} (the recorded "
+                          "hits are the drum)")
+    out: dict[str, Any] = {"hits": tuple(hits)}
+    for name, (default, low, high, text) in _RECORDED.items():
+        value = float(number(section.get(name, default), join(where, name)))
+        if not (low < value <= high if name != "level_spread_db" else low <= value <= high):
+            raise ConfigError(f"{join(where, name)}: must lie {text}, got {section[name]!r}")
+        out[name] = value
+    extras = section.get("extra_hits", [])
+    if not isinstance(extras, list):
+        raise ConfigError(f"{join(where, 'extra_hits')}: expected an array of tables such as "
+                          f"{{ file = \"tap.flac\", time_s = -0.3 }}, got {type_name(extras)}")
+    out["extra_hits"] = tuple(_parse_extra(x, f"{join(where, 'extra_hits')}[{i}]")
+                              for i, x in enumerate(extras))
+    return out
+
+
+def _parse_extra(entry: Any, where: str) -> ExtraHitSpec:
+    entry = table(entry, where)
+    check_keys(entry, _EXTRA_KEYS, where)
+    if "file" not in entry:
+        raise ConfigError(f"{join(where, 'file')}: missing (the sound's file)")
+    file = string(entry["file"], join(where, "file"))
+    if not file.strip():
+        raise ConfigError(f"{join(where, 'file')}: empty file name")
+    if ("time_s" in entry) == ("after_last_s" in entry):
+        raise ConfigError(f"{join(where, 'time_s')}: give time_s (from the first impact; "
+                          "negative: before the roll) or after_last_s (after the last "
+                          "impact), exactly one")
+    after_last = "after_last_s" in entry
+    name = "after_last_s" if after_last else "time_s"
+    time = float(number(entry[name], join(where, name), nonnegative=after_last))
+    level = float(number(entry.get("level_db", 0.0), join(where, "level_db")))
+    if not -120 <= level <= 40:
+        raise ConfigError(f"{join(where, 'level_db')}: must lie in [-120, 40] dB, "
+                          f"got {entry['level_db']!r}")
+    return ExtraHitSpec(file=file, time_s=time, after_last=after_last, level_db=level,
+                        kind=string(entry.get("kind", ""), join(where, "kind")))
+
+
+@dataclass(frozen=True, eq=False)
+class RecordedSources:
+    """The recorded sounds a ``[simulate]`` section names, read at its sample rate.
+
+    ``bank`` is None without ``hits``, ``room`` None without a measured room.
+    """
+
+    bank: HitBank | None
+    room: MeasuredRoom | None
+    extra_hits: tuple[ExtraHit, ...]
+
+
+def load_recorded(settings: SimulateSettings, base: str | Path,
+                  where: str = "simulate") -> RecordedSources:
+    """Read the hits, the measured room and the extra hits a ``[simulate]`` section names.
+
+    Parameters
+    ----------
+    settings
+        The section.
+    base
+        The folder relative file names are taken from (the config file's).
+    where
+        The section's name, for messages.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key: a missing, unreadable, damaged or silent file.
+    """
+    from drumroll.simulation.hits import HitBank
+    from drumroll.simulation.measured_room import MeasuredRoom
+    from drumroll.simulation.render_hits import ExtraHit
+
+    base = Path(base)
+    fs = settings.sample_rate
+    bank = None
+    if settings.hits:
+        paths = [_resolve(base, name, f"{join(where, 'hits')}[{i}]")
+                 for i, name in enumerate(settings.hits)]
+        bank = _load(join(where, "hits"), HitBank.load, paths, fs, names=settings.hits,
+                     layer_db=settings.layer_db, level_exponent=settings.level_exponent,
+                     level_spread_db=settings.level_spread_db)
+    room = None
+    if settings.room_file:
+        path = _resolve(base, settings.room_file, join(where, "room"))
+        room = _load(join(where, "room"), MeasuredRoom.load, path, fs, wet_db=settings.wet_db,
+                     name=settings.room_file)
+    extras = []
+    for i, spec in enumerate(settings.extra_hits):
+        key = f"{join(where, 'extra_hits')}[{i}].file"
+        sound = _load(key, HitBank.load, [_resolve(base, spec.file, key)], fs,
+                      names=[spec.file])
+        extras.append(ExtraHit(sound=sound, time_s=spec.time_s, after_last=spec.after_last,
+                               level_db=spec.level_db, kind=spec.kind))
+    return RecordedSources(bank=bank, room=room, extra_hits=tuple(extras))
+
+
+def _resolve(base: Path, name: str, key: str) -> Path:
+    """The file ``name`` names, checked to be a readable recording (errors name ``key``)."""
+    from drumroll.audio.io import probe
+
+    path = Path(name).expanduser()
+    path = path if path.is_absolute() else base / path
+    if not path.exists():
+        raise ConfigError(f"{key}: no such file {name!r} (looked for {path}; file names are "
+                          "relative to the config file's folder)")
+    _load(key, probe, path)
+    return path
+
+
+def _load(key: str, loader: Any, *args: Any, **kwargs: Any) -> Any:
+    """Call a loader, turning its one-line errors into ConfigErrors naming ``key``."""
+    try:
+        return loader(*args, **kwargs)
+    except (AudioError, ValueError) as exc:
+        raise ConfigError(f"{key}: {exc}") from None
 
 
 def _roll_end(section: dict[str, Any], values: dict[str, Any], where: str
