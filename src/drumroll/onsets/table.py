@@ -1,8 +1,17 @@
-"""The onset table: impact times with their uncertainties, and its file formats.
+"""The onset table: impact times with their uncertainties and bounce numbers, and its formats.
 
-The CSV header ``time_s,amplitude,snr_db,sigma_s,interval_s`` is a contract other tools read.
+The CSV header ``time_s,amplitude,snr_db,sigma_s,interval_s,bounce,roll`` is a contract other
+tools read (columns are only ever appended, never reordered). ``bounce`` numbers the impacts
+of a roll (physics.md: k = 0 for the first impact, flight k between impacts k − 1 and k); an
+impact that was not heard leaves a gap in the numbers. ``roll`` numbers the rolls of one
+recording (0, 1, 2, … in time order), when a stick was dropped more than once.
+
 :func:`read_onsets` also accepts Audacity label files (``start<TAB>end<TAB>label``) and plain
-text with one time per line, so hand-made or third-party onset lists can be fitted too.
+text with one time per line, so hand-made or third-party onset lists can be fitted too. A CSV
+without ``bounce`` and ``roll`` (as written before they existed) is one roll numbered 0, 1, 2,
+…; so is a plain text file. Audacity labels named ``hit n`` (what :meth:`OnsetTable.to_labels`
+writes) carry bounce n − 1, and ``roll m hit n`` roll m − 1 as well (labels count from 1, as
+people do); when any label is named otherwise, the labels are numbered in time order.
 """
 
 from __future__ import annotations
@@ -10,15 +19,21 @@ from __future__ import annotations
 import io
 import math
 import os
-from dataclasses import dataclass, field
+import re
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from drumroll.errors import DrumrollError
 
-#: CSV columns, in order (a contract: do not reorder).
-COLUMNS = ("time_s", "amplitude", "snr_db", "sigma_s", "interval_s")
+#: CSV columns, in order (a contract: append new ones, never reorder).
+COLUMNS = ("time_s", "amplitude", "snr_db", "sigma_s", "interval_s", "bounce", "roll")
+#: The columns that number the onsets (whole numbers, not measurements).
+NUMBER_COLUMNS = ("bounce", "roll")
+#: An Audacity label that carries the numbers: ``hit n`` or ``roll m hit n`` (from 1).
+_LABEL = re.compile(r"^(?:roll\s+(\d+)\s+)?hit\s+(\d+)$", re.IGNORECASE)
 
 
 @dataclass
@@ -37,13 +52,24 @@ class OnsetTable:
     sigma_s
         One-standard-deviation timing uncertainty of each onset, seconds (0 if unknown).
     interval_s
-        Time since the previous onset (NaN for the first).
+        Time since the previous onset of the same roll (NaN for each roll's first).
     rejected_time_s, rejected_snr_db, rejected_reason
         Candidates the tracker did not keep and why (filled only when asked for).
     source
         Where the onsets came from (a file name, or ``"<array>"``).
     sample_rate
         Sample rate of the recording, if known.
+    bounce
+        Bounce number k of each onset within its roll (keyword; ``None``: 0, 1, 2, … in time
+        order within each roll). Strictly increasing with time within a roll; a missing number
+        is an impact that was not heard (inaudible or masked).
+    roll
+        Roll number of each onset (keyword; ``None``: all 0): 0, 1, 2, … in time order.
+
+    Raises
+    ------
+    ValueError
+        Columns of different lengths, or numbers that break the rules above.
     """
 
     time_s: np.ndarray
@@ -55,36 +81,124 @@ class OnsetTable:
     rejected_reason: list[str] = field(default_factory=list)
     source: str = ""
     sample_rate: int | None = None
+    bounce: np.ndarray | None = field(default=None, kw_only=True)
+    roll: np.ndarray | None = field(default=None, kw_only=True)
 
     def __post_init__(self) -> None:
-        order = np.argsort(np.asarray(self.time_s, dtype=float), kind="stable")
-        self.time_s = np.asarray(self.time_s, dtype=float)[order]
-        self.amplitude = np.asarray(self.amplitude, dtype=float)[order]
-        self.snr_db = np.asarray(self.snr_db, dtype=float)[order]
-        self.sigma_s = np.asarray(self.sigma_s, dtype=float)[order]
+        time_s = np.asarray(self.time_s, dtype=float).ravel()
+        order = np.argsort(time_s, kind="stable")
+        self.time_s = time_s[order]
+        for name in ("amplitude", "snr_db", "sigma_s"):
+            values = np.asarray(getattr(self, name), dtype=float).ravel()
+            if values.size != order.size:
+                raise ValueError(f"{name} has {values.size} values for {order.size} onsets")
+            setattr(self, name, values[order])
+        self.roll = (np.zeros(order.size, dtype=np.int64) if self.roll is None
+                     else _whole_numbers(self.roll, "roll", order.size)[order])
+        self.bounce = (_count_within(self.roll) if self.bounce is None
+                       else _whole_numbers(self.bounce, "bounce", order.size)[order])
+        problem = numbering_problem(self.bounce, self.roll)
+        if problem is not None:
+            raise ValueError(f"onset {problem[0]} (in time order): {problem[1]}")
         self.rejected_time_s = np.asarray(self.rejected_time_s, dtype=float)
         self.rejected_snr_db = np.asarray(self.rejected_snr_db, dtype=float)
 
     @property
     def interval_s(self) -> np.ndarray:
-        """Time since the previous onset (NaN for the first)."""
-        return np.concatenate(([np.nan], np.diff(self.time_s))) if len(self) else np.zeros(0)
+        """Time since the previous onset of the same roll (NaN for each roll's first).
+
+        Across a gap in the bounce numbers this spans several flights (see
+        :func:`drumroll.reporting.plot_style.single_flights`).
+        """
+        if not len(self):
+            return np.zeros(0)
+        same_roll = self.roll[1:] == self.roll[:-1]
+        return np.concatenate(([np.nan], np.where(same_roll, np.diff(self.time_s), np.nan)))
 
     def __len__(self) -> int:
         return int(self.time_s.size)
 
+    # -- rolls and gaps ------------------------------------------------------------------
+    @property
+    def rolls(self) -> tuple[int, ...]:
+        """The roll numbers present, in time order."""
+        return tuple(int(r) for r in np.unique(self.roll))
+
+    def roll_sizes(self) -> dict[int, int]:
+        """Number of onsets of each roll present, in time order."""
+        numbers, counts = np.unique(self.roll, return_counts=True)
+        return {int(r): int(c) for r, c in zip(numbers, counts, strict=True)}
+
+    @property
+    def longest_roll(self) -> int:
+        """The roll with the most onsets (the earliest of those tied).
+
+        Raises
+        ------
+        ValueError
+            For an empty table.
+        """
+        sizes = self.roll_sizes()
+        if not sizes:
+            raise ValueError("an empty onset table has no rolls")
+        return max(sizes, key=lambda r: (sizes[r], -r))
+
+    def select_roll(self, number: int) -> OnsetTable:
+        """The onsets of roll ``number`` alone (bounce and roll numbers kept).
+
+        (Named ``select_roll``, not ``roll``: ``roll`` is the column of roll numbers.)
+
+        Raises
+        ------
+        DrumrollError
+            If the table holds no roll ``number``.
+        """
+        if number not in self.rolls:
+            where = f"{self.source}: " if self.source else ""
+            present = ", ".join(map(str, self.rolls)) or "none"
+            raise DrumrollError(f"{where}no roll {number}; the onsets hold "
+                                f"roll{'s' if len(self.rolls) != 1 else ''} {present}")
+        keep = self.roll == number
+        return replace(self, time_s=self.time_s[keep], amplitude=self.amplitude[keep],
+                       snr_db=self.snr_db[keep], sigma_s=self.sigma_s[keep],
+                       bounce=self.bounce[keep], roll=self.roll[keep],
+                       rejected_reason=list(self.rejected_reason))
+
+    def gaps(self, roll: int | None = None) -> list[int]:
+        """The bounce numbers missing between the first and the last onset of one roll.
+
+        Parameters
+        ----------
+        roll
+            The roll; ``None`` for the table's only roll.
+
+        Raises
+        ------
+        ValueError
+            ``roll`` is None and the table holds several rolls.
+        """
+        if roll is None:
+            if len(self.rolls) > 1:
+                raise ValueError(f"the table holds rolls {', '.join(map(str, self.rolls))}: "
+                                 "say which roll's gaps")
+            bounces = self.bounce
+        else:
+            bounces = self.bounce[self.roll == roll]
+        return missing_bounces(bounces)
+
     # -- writing -------------------------------------------------------------------------
     def to_csv(self, *, all_candidates: bool = False) -> str:
-        """The table as CSV text with the contract header.
+        """The table as CSV text with the contract header (:data:`COLUMNS`).
 
         With ``all_candidates`` the rejected candidates follow the kept onsets as comment lines
         (``# rejected,time_s,snr_db,reason``), which readers of the contract columns skip.
         """
         out = io.StringIO()
         out.write(",".join(COLUMNS) + "\n")
-        for row in zip(self.time_s, self.amplitude, self.snr_db, self.sigma_s,
-                       self.interval_s, strict=True):
-            out.write(",".join(_fmt(v) for v in row) + "\n")
+        for *row, bounce, roll in zip(self.time_s, self.amplitude, self.snr_db, self.sigma_s,
+                                      self.interval_s, self.bounce, self.roll, strict=True):
+            out.write(",".join([*(_fmt(v) for v in row), str(int(bounce)), str(int(roll))])
+                      + "\n")
         if all_candidates:
             for t, s, why in zip(self.rejected_time_s, self.rejected_snr_db,
                                  self.rejected_reason, strict=True):
@@ -92,12 +206,72 @@ class OnsetTable:
         return out.getvalue()
 
     def to_labels(self) -> str:
-        """The onsets as an Audacity label track (point labels named ``hit 1``, ``hit 2``…)."""
-        return "".join(f"{t:.6f}\t{t:.6f}\thit {i + 1}\n" for i, t in enumerate(self.time_s))
+        """The onsets as an Audacity label track: point labels ``hit n`` for bounce n − 1
+        (``hit 1``, ``hit 2``, … when no bounce is missing), prefixed ``roll m`` for roll
+        m − 1 when the table holds any roll but roll 0."""
+        prefix = bool(np.any(self.roll != 0))
+        return "".join(f"{t:.6f}\t{t:.6f}\t{f'roll {r + 1} ' if prefix else ''}hit {k + 1}\n"
+                       for t, k, r in zip(self.time_s, self.bounce, self.roll, strict=True))
 
     def to_text(self) -> str:
-        """One time per line, seconds."""
+        """One time per line, seconds (no bounce or roll numbers: one roll, no gaps)."""
         return "".join(f"{t:.7f}\n" for t in self.time_s)
+
+
+def missing_bounces(bounces: ArrayLike) -> list[int]:
+    """The numbers missing between the first and the last of increasing ``bounces``."""
+    bounces = np.asarray(bounces, dtype=np.int64)
+    if bounces.size < 2:
+        return []
+    return [int(k) for k in np.setdiff1d(np.arange(bounces[0], bounces[-1] + 1), bounces)]
+
+
+def numbering_problem(bounce: NDArray, roll: NDArray) -> tuple[int, str] | None:
+    """The first row (in time order) whose bounce or roll number breaks the contract, and
+    what is wrong with it; None when every number is fine.
+
+    The rules: numbers are non-negative; rolls are numbered in time order (no roll starts
+    before an earlier-numbered one ends); within a roll, bounce numbers increase with time.
+    """
+    for name, values in (("bounce", bounce), ("roll", roll)):
+        negative = np.flatnonzero(values < 0)
+        if negative.size:
+            i = int(negative[0])
+            return i, f"{name} {int(values[i])} is negative (numbers count from 0)"
+    earlier = np.flatnonzero(np.diff(roll) < 0)
+    if earlier.size:
+        i = int(earlier[0]) + 1
+        return i, (f"roll {int(roll[i])} after roll {int(roll[i - 1])}: rolls are numbered in "
+                   "time order")
+    same = roll[1:] == roll[:-1]
+    back = np.flatnonzero(same & (np.diff(bounce) <= 0))
+    if back.size:
+        i = int(back[0]) + 1
+        return i, (f"bounce {int(bounce[i])} after bounce {int(bounce[i - 1])} of roll "
+                   f"{int(roll[i])}: bounce numbers must increase with time within a roll")
+    return None
+
+
+def _whole_numbers(values: ArrayLike, name: str, size: int) -> NDArray[np.int64]:
+    """``values`` as int64, checked to be ``size`` whole numbers."""
+    values = np.asarray(values).ravel()
+    if values.size != size:
+        raise ValueError(f"{name} has {values.size} values for {size} onsets")
+    if values.dtype.kind not in "iu":
+        as_float = values.astype(float)
+        if not np.all(np.isfinite(as_float) & (as_float == np.round(as_float))):
+            raise ValueError(f"{name} numbers must be whole numbers")
+        values = as_float
+    return values.astype(np.int64)
+
+
+def _count_within(roll: NDArray) -> NDArray[np.int64]:
+    """0, 1, 2, … within each roll of ``roll`` (sorted by time)."""
+    count = np.arange(roll.size, dtype=np.int64)
+    if roll.size:
+        starts = np.flatnonzero(np.r_[True, roll[1:] != roll[:-1]])
+        count -= np.repeat(starts, np.diff(np.r_[starts, roll.size]))
+    return count
 
 
 def _fmt(value: float) -> str:
@@ -110,7 +284,10 @@ def _fmt(value: float) -> str:
 def read_onsets(path: str | os.PathLike[str]) -> OnsetTable:
     """Read onsets from our CSV, an Audacity label file or a one-time-per-line text file.
 
-    Missing columns are filled in: ``sigma_s`` = 0, ``amplitude`` and ``snr_db`` NaN.
+    Missing columns are filled in: ``sigma_s`` = 0, ``amplitude`` and ``snr_db`` NaN,
+    ``bounce`` 0, 1, 2, … within each roll and ``roll`` 0. The bounce and roll numbers are
+    checked (whole, non-negative, bounces increasing with time within a roll, rolls numbered
+    in time order).
 
     Raises
     ------
@@ -153,6 +330,39 @@ def _number(path: Path, n: int, text: str, what: str) -> float:
             from None
 
 
+def _whole(path: Path, n: int, text: str, what: str) -> int:
+    """A bounce or roll number of line ``n``: a non-negative whole number (``3`` or ``3.0``)."""
+    value = _number(path, n, text, what)
+    if not (math.isfinite(value) and value == round(value)):
+        raise DrumrollError(f"{path}: line {n}: {what} {text.strip()!r} is not a whole number")
+    if value < 0:
+        raise DrumrollError(f"{path}: line {n}: {what} {text.strip()} is negative (numbers "
+                            "count from 0)")
+    return int(value)
+
+
+def _numbered(path: Path, line_numbers: list[int], times: list[float], columns: dict
+              ) -> OnsetTable:
+    """The table of ``times`` with the numbering columns given (``bounce``, ``roll`` or
+    neither), after checking the numbers against each other; an error names the line."""
+    times_a = np.asarray(times, float)
+    bounce, roll = columns.get("bounce"), columns.get("roll")
+    if bounce is not None or roll is not None:
+        order = np.argsort(times_a, kind="stable")
+        roll_sorted = (np.zeros(order.size, np.int64) if roll is None
+                       else np.asarray(roll, np.int64)[order])
+        bounce_sorted = (_count_within(roll_sorted) if bounce is None
+                         else np.asarray(bounce, np.int64)[order])
+        problem = numbering_problem(bounce_sorted, roll_sorted)
+        if problem is not None:
+            row, message = problem
+            raise DrumrollError(f"{path}: line {line_numbers[order[row]]}: {message}")
+    size = times_a.size
+    return OnsetTable(times_a, columns.get("amplitude", np.full(size, np.nan)),
+                      columns.get("snr_db", np.full(size, np.nan)),
+                      columns.get("sigma_s", np.zeros(size)), bounce=bounce, roll=roll)
+
+
 def _read_csv(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
     header = [h.strip() for h in lines[0][1].split(",")]
     missing = [c for c in ("time_s",) if c not in header]
@@ -165,18 +375,15 @@ def _read_csv(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
             raise DrumrollError(f"{path}: line {n}: expected {len(header)} comma-separated "
                                 f"values, found {len(parts)}")
         for c, v in zip(header, parts, strict=True):
-            cols[c].append(_number(path, n, v, c))
-    size = len(cols["time_s"])
-
-    def col(name: str, default: float) -> np.ndarray:
-        return np.asarray(cols[name], float) if name in cols else np.full(size, default)
-
-    return OnsetTable(col("time_s", np.nan), col("amplitude", np.nan), col("snr_db", np.nan),
-                      col("sigma_s", 0.0))
+            cols[c].append(_whole(path, n, v, c) if c in NUMBER_COLUMNS
+                           else _number(path, n, v, c))
+    given = {c: np.asarray(cols[c], np.int64 if c in NUMBER_COLUMNS else float)
+             for c in ("amplitude", "snr_db", "sigma_s", *NUMBER_COLUMNS) if c in cols}
+    return _numbered(path, [n for n, _ in lines[1:]], cols["time_s"], given)
 
 
 def _read_labels(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
-    times = []
+    times, names, line_numbers = [], [], []
     for n, ln in lines:
         parts = ln.split("\t")
         if parts[0] == "\\":  # Audacity's spectral-selection continuation line
@@ -185,9 +392,18 @@ def _read_labels(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
             raise DrumrollError(f"{path}: line {n}: expected start<TAB>end<TAB>label")
         times.append(_number(path, n, parts[0], "start time"))
         _number(path, n, parts[1], "end time")
-    size = len(times)
-    return OnsetTable(np.asarray(times), np.full(size, np.nan), np.full(size, np.nan),
-                      np.zeros(size))
+        names.append(parts[2].strip() if len(parts) > 2 else "")
+        line_numbers.append(n)
+    matches = [_LABEL.match(name) for name in names]
+    columns: dict[str, np.ndarray] = {}
+    if matches and all(matches):  # every label carries its numbers: keep them
+        for n, m in zip(line_numbers, matches, strict=True):
+            if int(m.group(2)) < 1 or (m.group(1) is not None and int(m.group(1)) < 1):
+                raise DrumrollError(f"{path}: line {n}: label {m.group(0)!r}: hits and rolls "
+                                    "are counted from 1 in labels")
+        columns["bounce"] = np.array([int(m.group(2)) - 1 for m in matches], np.int64)
+        columns["roll"] = np.array([int(m.group(1) or 1) - 1 for m in matches], np.int64)
+    return _numbered(path, line_numbers, times, columns)
 
 
 def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
@@ -197,6 +413,4 @@ def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
             raise DrumrollError(f"{path}: line {n}: expected one time per line, found "
                                 f"{ln[:40]!r}")
         times.append(_number(path, n, ln, "time"))
-    size = len(times)
-    return OnsetTable(np.asarray(times), np.full(size, np.nan), np.full(size, np.nan),
-                      np.zeros(size))
+    return _numbered(path, [n for n, _ in lines], times, {})
