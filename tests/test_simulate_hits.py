@@ -66,6 +66,19 @@ def test_resampled_sample_starts_where_the_file_does(rate):
     assert abs(r.samples[n0]) >= 0.01 * np.max(np.abs(r.samples))
 
 
+def test_a_lossy_sample_starts_at_its_transient_not_its_pre_echo():
+    # The claves (OGG Vorbis) strike at 17.2 ms; the 2 ms before it hold the codec's
+    # pre-echo: noise between 1 % and 10 % of the peak.
+    x, fs = sf.read(CLAVES)
+    a = np.abs(x.mean(axis=1))
+    strike = int(np.argmax(a >= 0.1 * a.max()))
+    assert strike / fs == pytest.approx(17.21e-3, abs=0.05e-3)
+    assert np.max(a[round(0.0155 * fs):strike]) > 0.03 * a.max()
+    for rate in (22050, 44100, 96000):
+        assert HitBank.load([CLAVES], rate).starts_s[0] == pytest.approx(strike / fs,
+                                                                         abs=1.5 / rate)
+
+
 def test_a_file_that_starts_with_its_sound_starts_at_once(tmp_path):
     x, fs = sf.read(PEARL[4])
     x = x[int(np.argmax(np.abs(x) > 0.3)):]  # cut into the attack: no floor to measure

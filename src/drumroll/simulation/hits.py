@@ -18,6 +18,13 @@ the rendering's rate) with peak ``P = max |x|``:
    samples), and at least 1 % of the peak (-40 dB), so that the dither of a clean file
    cannot either.
 
+In a lossy-coded file (OGG Vorbis, Opus, MP3) the start is instead the first sample with
+``|x| >= 0.1 P``, where the hit is under way: a transform codec spreads its quantisation
+noise up to about one short block (a few ms) ahead of a transient (*pre-echo*), and in the
+bundled claves that noise rises from -40 to -22 dB re peak over the
+2 ms before the strike, where the 1 % rule would put the start. Below -20 dB, nothing before
+a lossy file's transient can be told from that noise.
+
 1 % of the peak is low enough to keep the faint precursors that belong to a hit (the snare
 swing above, at about -30 dB, precedes the stick's main attack by 0.7 ms in some of the AVL
 layers) and lies 20 dB or more above the bundled samples' floors (-60 to -85 dB re peak).
@@ -52,7 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drumroll.simulation.disturbances import REFERENCE_WINDOW_S
-from drumroll.simulation.sample_files import read_mono
+from drumroll.simulation.sample_files import is_lossy, read_mono
 
 #: Sample start: the lowest level a start may have, relative to the sample's peak (1 %).
 START_PEAK_FRACTION = 0.01
@@ -68,7 +75,7 @@ START_FLOOR_MIN_S = 0.5e-3
 _MEDIAN_CHI2_1 = 0.4549364231195724
 
 
-def sound_start(x: np.ndarray, sample_rate: int) -> int:
+def sound_start(x: np.ndarray, sample_rate: int, *, lossy: bool = False) -> int:
     """Index of the first sample of a recorded hit's own sound (see the module docstring).
 
     Parameters
@@ -77,11 +84,15 @@ def sound_start(x: np.ndarray, sample_rate: int) -> int:
         The recording, mono.
     sample_rate
         Its samples per second (sets the 0.5 ms needed to measure a floor).
+    lossy
+        The recording was lossy-coded: start where the hit is under way (10 % of the peak),
+        not in the codec's pre-echo.
 
     Returns
     -------
     int
-        The first sample with ``|x| >= max(10 * floor, 0.01 * peak)``.
+        The first sample with ``|x| >= max(10 * floor, 0.01 * peak)`` (lossless) or
+        ``|x| >= 0.1 * peak`` (lossy).
 
     Raises
     ------
@@ -93,6 +104,8 @@ def sound_start(x: np.ndarray, sample_rate: int) -> int:
     if not peak > 0:
         raise ValueError("the sample is silent")
     under_way = int(np.argmax(a >= START_UNDER_WAY_FRACTION * peak))
+    if lossy:
+        return under_way
     lead = under_way - round(START_PRECURSOR_S * sample_rate)
     floor = 0.0
     if lead >= START_FLOOR_MIN_S * sample_rate:
@@ -175,7 +188,7 @@ class HitBank:
         for path in paths:
             x = read_mono(path, sample_rate)
             try:
-                i0 = sound_start(x, sample_rate)
+                i0 = sound_start(x, sample_rate, lossy=is_lossy(path))
             except ValueError:
                 raise ValueError(f"{path}: the sample is silent") from None
             hit = x[i0:]

@@ -19,6 +19,15 @@ from scipy import signal
 from drumroll.audio.io import probe
 from drumroll.errors import AudioError
 
+#: soundfile subtypes of lossy codecs (transform codecs: they smear noise ahead of transients).
+LOSSY_SUBTYPES = frozenset({"VORBIS", "OPUS", "MPEG_LAYER_I", "MPEG_LAYER_II",
+                            "MPEG_LAYER_III"})
+
+
+def is_lossy(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` holds lossy-coded audio (Vorbis, Opus, MP3)."""
+    return probe(path).subtype in LOSSY_SUBTYPES
+
 
 def read_mono(path: str | os.PathLike[str], sample_rate: int) -> np.ndarray:
     """The sound in ``path`` as mono ``float64`` at ``sample_rate``.
