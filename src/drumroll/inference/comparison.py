@@ -34,17 +34,23 @@ MODEL_NAMES = {"pendulum": "the exact pendulum", "small-angle": "the small-angle
 
 @dataclass(frozen=True)
 class LooResult:
-    """PSIS-LOO of one model."""
+    """PSIS-LOO of one model.
+
+    ``bounces`` are the bounce numbers of the onsets (the InferenceData's ``onset``
+    coordinate; ``None``: 0, 1, 2, …), by which onsets are named to the user.
+    """
 
     elpd: float
     se: float
     pointwise: np.ndarray
     pareto_k: np.ndarray
+    bounces: np.ndarray | None = None
 
     @property
     def bad_onsets(self) -> list[int]:
-        """Indices of onsets whose Pareto k exceeds 0.7 (LOO unreliable there)."""
-        return [int(i) for i in np.flatnonzero(self.pareto_k > PARETO_K_BAD)]
+        """Bounce numbers of the onsets whose Pareto k exceeds 0.7 (LOO unreliable there)."""
+        bad = np.flatnonzero(self.pareto_k > PARETO_K_BAD)
+        return [int(k) for k in (bad if self.bounces is None else self.bounces[bad])]
 
 
 def loo(idata: az.InferenceData) -> LooResult:
@@ -52,8 +58,12 @@ def loo(idata: az.InferenceData) -> LooResult:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # high Pareto k is reported by name, not as a warning
         result = az.loo(idata, pointwise=True)
+    pareto_k = result.pareto_k
+    bounces = (np.asarray(pareto_k["onset"].values) if "onset" in getattr(pareto_k, "coords", {})
+               else None)
     return LooResult(elpd=float(result.elpd_loo), se=float(result.se),
-                     pointwise=np.asarray(result.loo_i), pareto_k=np.asarray(result.pareto_k))
+                     pointwise=np.asarray(result.loo_i), pareto_k=np.asarray(pareto_k),
+                     bounces=bounces)
 
 
 def _sign(value: float, error: float, minimum: float) -> int:

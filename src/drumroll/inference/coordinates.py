@@ -68,12 +68,13 @@ class SamplerCoordinates:
             v(x, "release_angle") * ones
 
     def _t0_centre(self, x: NDArray, impacts: NDArray) -> tuple[NDArray, NDArray]:
-        """T̂0 and its standard error s per row, given the rows' impact times."""
+        """T̂0 and its standard error s per row, given the rows' impact times τ_0 … τ_K."""
         data = self.data
         jitter = self.space._value(x, "jitter")
         weight = 1.0 / (np.reshape(jitter, (-1, 1)) ** 2 + data.sigmas**2)
         sum_w = weight.sum(axis=1)
-        return (weight * (data.times - impacts)).sum(axis=1) / sum_w, 1.0 / np.sqrt(sum_w)
+        residual = data.times - data.at_onsets(impacts)
+        return (weight * residual).sum(axis=1) / sum_w, 1.0 / np.sqrt(sum_w)
 
     def to_sampler(self, x: NDArray) -> NDArray:
         """z of each row of the parameters ``x`` (NaN where x is invalid)."""

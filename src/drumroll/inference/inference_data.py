@@ -8,6 +8,10 @@ log p(t_i | t_{-i}, θ) of :mod:`drumroll.inference.loo`), ``posterior_predictiv
 ``onset_time`` and the noise-free ``flight_time_model``), ``observed_data``,
 ``constant_data`` (the extractor's ``onset_sigma_s``) and ``sample_stats`` (``lp``).
 Walkers are ArviZ's chains.
+
+Coordinates: ``onset`` holds each observed onset's bounce number k (0, 1, 2, … when none is
+missing; a gap where an impact was not heard), ``flight`` the model's flights 1 … K up to the
+last observed bounce, gaps included.
 """
 
 from __future__ import annotations
@@ -55,7 +59,8 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
     -------
     variables, impacts, t0
         ``variables`` maps summary names to arrays of shape ``samples.shape[:-1]``;
-        ``impacts`` (…, N + 1) are the model's impact times after the first; ``t0`` is T0.
+        ``impacts`` (…, K + 1) are the model's impact times τ_0 … τ_K after the first, at
+        every bounce up to the last observed one; ``t0`` is T0.
     """
     shape = samples.shape[:-1]
     flat = samples.reshape(-1, samples.shape[-1])
@@ -97,12 +102,13 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
     if log_posterior.noise == "student-t":
         nu = np.broadcast_to(np.asarray(values["nu"], float), scale.shape[:1])[:, None]
         noise = scale * rng.standard_t(nu, size=scale.shape)
-    predicted = (_flat(t0[..., None]) + _flat(impacts) + noise).reshape(pointwise.shape)
+    predicted = (_flat(t0[..., None]) + data.at_onsets(_flat(impacts)) + noise
+                 ).reshape(pointwise.shape)
     flights = np.diff(impacts, axis=-1)
 
     prior_samples = log_posterior.space.sample_prior(rng, n_prior)
     prior_variables, _, _ = parameter_draws(log_posterior, prior_samples[None], rng)
-    coords = {"onset": np.arange(data.n_onsets), "flight": np.arange(1, data.n_onsets)}
+    coords = {"onset": data.bounces, "flight": np.arange(1, data.n_flights + 1)}
     dims = {"onset_time": ["onset"], "flight_time_model": ["flight"], "onset_sigma_s": ["onset"]}
     idata = az.from_dict(
         posterior=variables,

@@ -22,20 +22,21 @@ _LOG_2PI = math.log(2.0 * math.pi)
 
 
 def conditional_pointwise(data: OnsetData, impacts: NDArray, jitter: NDArray) -> NDArray:
-    """log p(t_i | t_{-i}, θ) per parameter row and onset, shape ``(batch, N + 1)``.
+    """log p(t_i | t_{-i}, θ) per parameter row and onset, shape ``(batch, n_onsets)``.
 
     Parameters
     ----------
     data
         The onsets.
     impacts
-        Model impact times after the first impact, shape ``(batch, N + 1)``.
+        Model impact times τ_0 … τ_K after the first impact, shape ``(batch, K + 1)``; the
+        onsets are compared with the columns of their bounce numbers.
     jitter
         σ (s) per row.
     """
     variance = np.asarray(jitter)[:, None] ** 2 + data.sigmas**2
     weight = 1.0 / variance
-    residual = data.times - impacts
+    residual = data.times - data.at_onsets(impacts)
     total_w = weight.sum(axis=1, keepdims=True)
     total_wr = (weight * residual).sum(axis=1, keepdims=True)
     others_w = total_w - weight

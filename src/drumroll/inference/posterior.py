@@ -22,7 +22,8 @@ from drumroll.inference.priors import Fixed, Prior, Uniform
 from drumroll.inference.space import ParameterSpace
 
 NOISE_MODELS = ("gaussian", "student-t")
-#: Impact times after the first, ``(batch, N + 1)``, and where they are valid, ``(batch,)``.
+#: Impact times τ_0 … τ_K after the first (every bounce up to the last observed one,
+#: K = ``data.n_flights``), ``(batch, K + 1)``, and where they are valid, ``(batch,)``.
 Impacts = tuple[NDArray, NDArray]
 
 
@@ -159,7 +160,7 @@ class LogPosterior:
         return mean + sd * rng.standard_normal(mean.shape)
 
     def pointwise(self, x: NDArray, t0: NDArray) -> NDArray:
-        """log p(t_k | θ, T0) per row and onset, shape ``(batch, N + 1)``."""
+        """log p(t_k | θ, T0) per row and observed onset, shape ``(batch, n_onsets)``."""
         v = self.space.values(x)
         impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
         return pointwise_log_likelihood(self.data, impacts, v["jitter"], t0, self.noise,
