@@ -28,12 +28,11 @@ import emcee
 import numpy as np
 
 from drumroll.config import load_config
-from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.mode import find_mode
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import SamplerSettings, initial_ball, run_emcee
 from drumroll.inference.settings import estimate_settings
-from drumroll.pipeline import load_onsets
+from drumroll.pipeline import choose_roll, load_onsets
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -80,8 +79,7 @@ def ess_alpha(chain: np.ndarray) -> float:
 
 def sampler_peer(source: Path, config: Path) -> None:
     cfg = load_config(config)
-    onsets = load_onsets(source)
-    data = OnsetData.from_arrays(onsets.time_s, onsets.sigma_s)
+    data = choose_roll(load_onsets(source)).data  # the roll estimate fits, as it numbers it
     settings = estimate_settings(cfg.sections)  # the config's noise model, as estimate uses
     log_posterior = LogPosterior.build(cfg, "pendulum", data, settings.noise, settings.nu)
     i_alpha = log_posterior.space.names.index("alpha")

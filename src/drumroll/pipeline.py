@@ -1,6 +1,8 @@
 """``drumroll.estimate``: from a recording (or onset file) to posteriors and a comparison.
 
-The data's path: onsets (:mod:`drumroll.onsets`) → log posterior of each model
+The data's path: onsets (:mod:`drumroll.onsets`) → the roll to fit (:func:`choose_roll`: one
+roll of the recording, its bounce numbers counted from its first onset) → log posterior of
+each model
 (:class:`~drumroll.inference.posterior.LogPosterior`) → emcee
 (:func:`~drumroll.inference.sampling.run_emcee`) and, for Bayes factors, dynesty
 (:func:`~drumroll.inference.evidence.compute_evidence`) → ArviZ InferenceData → PSIS-LOO
@@ -69,7 +71,9 @@ class Result:
     fits
         Model name → :class:`ModelFit`, main model first.
     onsets
-        The onsets that were fitted.
+        The onsets that were fitted: one roll, bounce numbers counted from its first onset
+        (``summary["roll"]`` says which roll of the source, ``summary["notes"]`` what else
+        the user should know about it).
     config
         The config used.
     source
@@ -113,6 +117,77 @@ def load_onsets(source: str | os.PathLike[str] | OnsetTable, **options: Any) -> 
     if path.suffix.lower() in ONSET_FILE_SUFFIXES:
         return read_onsets(path)
     return detect(path, **options)
+
+
+@dataclass(frozen=True)
+class FittedRoll:
+    """The roll of a recording that ``estimate`` fits.
+
+    Attributes
+    ----------
+    onsets
+        The roll's onsets, bounce numbers counted from its first onset (k = 0).
+    data
+        The same onsets as the likelihood takes them.
+    roll
+        The roll's number in the source (0, 1, 2, … in time order).
+    sizes
+        Onsets per roll of the source, by roll number.
+    notes
+        What the user should read before the numbers: other rolls in the recording, bounces
+        renumbered from the first one heard, missing bounces.
+    """
+
+    onsets: OnsetTable
+    data: OnsetData
+    roll: int
+    sizes: dict[int, int]
+    notes: list[str]
+
+
+def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the onsets"
+                ) -> FittedRoll:
+    """The roll to fit: roll ``roll``, or the longest (the earliest of those tied).
+
+    Bounce numbers become relative to the roll's first onset: k = 0 is the first impact heard,
+    where the model's time starts (a user's file may start at k > 0; an extractor's starts at
+    0). A missing number is an impact that was not heard, fitted as a gap: the model runs
+    through it, and the onsets after it keep their own k.
+
+    Raises
+    ------
+    DrumrollError
+        ``roll`` is not a roll of ``onsets`` (one line naming ``name``).
+    """
+    sizes = onsets.roll_sizes()
+    if not sizes:
+        raise DrumrollError(f"{name}: holds no onsets")
+    if roll is not None and roll not in sizes:
+        present = ", ".join(map(str, sizes))
+        raise DrumrollError(f"{name}: no roll {roll}; the recording holds "
+                            f"roll{'s' if len(sizes) > 1 else ''} {present} (--roll counts "
+                            "from 0)")
+    chosen = onsets.longest_roll if roll is None else roll
+    table = onsets.select_roll(chosen)
+    data = OnsetData.from_arrays(table.time_s, table.sigma_s, table.bounce)
+    notes = []
+    if len(sizes) > 1:
+        counts = ", ".join(str(c) for c in sizes.values())
+        why = ("the longest; choose another with --roll N" if roll is None
+               else "as asked")
+        notes.append(f"the recording holds {len(sizes)} rolls (onsets {counts}); fitting roll "
+                     f"{chosen}, {why}")
+    first = int(table.bounce[0])
+    if first:
+        notes.append(f"the roll's first onset is numbered bounce {first}: bounces are counted "
+                     "from the first impact heard, which is k = 0 here")
+        table = replace(table, bounce=data.bounces)
+    missing = data.missing
+    if missing:
+        listed = ", ".join(map(str, missing))
+        notes.append(f"bounce{'s' if len(missing) > 1 else ''} {listed} missing (inaudible or "
+                     f"masked): fitted as gap{'s' if len(missing) > 1 else ''}")
+    return FittedRoll(onsets=table, data=data, roll=int(chosen), sizes=sizes, notes=notes)
 
 
 def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings, seed: int
@@ -184,7 +259,8 @@ def model_seed(base: int, index: int) -> int:
 
 
 def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str | os.PathLike[str],
-             *, progress: Progress | None = None, **onset_options: Any) -> Result:
+             *, roll: int | None = None, progress: Progress | None = None,
+             **onset_options: Any) -> Result:
     """Posteriors of every model in the config, and their comparison.
 
     Parameters
@@ -194,6 +270,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         time per line) or an :class:`~drumroll.onsets.OnsetTable`.
     config
         A :class:`~drumroll.config.Config` or the path of a TOML config.
+    roll
+        Which roll of the source to fit (0, 1, 2, … in time order); default the longest
+        (see :func:`choose_roll`).
     progress
         Called with a line of text at each stage (the command line prints it on stderr).
     onset_options
@@ -210,13 +289,16 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     settings = estimate_settings(config.sections)
     seconds: dict[str, float] = {}
     started = time.perf_counter()
-    onsets = load_onsets(source, **onset_options)
+    name = "the onsets" if isinstance(source, OnsetTable) else str(source)
+    fitted = choose_roll(load_onsets(source, **onset_options), roll, name)
+    onsets, data = fitted.onsets, fitted.data
     seconds["onsets"] = time.perf_counter() - started
+    of_roll = f" in roll {fitted.roll}" if len(fitted.sizes) > 1 else ""
     if len(onsets) < MIN_ONSETS:
-        raise DrumrollError(f"{source}: only {len(onsets)} onsets; at least {MIN_ONSETS} are "
-                            "needed to estimate anything")
-    say(f"{len(onsets)} onsets, from {onsets.time_s[0]:.4f} s to {onsets.time_s[-1]:.4f} s")
-    data = OnsetData.from_arrays(onsets.time_s, onsets.sigma_s)
+        raise DrumrollError(f"{name}: only {len(onsets)} onsets{of_roll}; at least "
+                            f"{MIN_ONSETS} are needed to estimate anything")
+    say(f"{len(onsets)} onsets{of_roll}, from {onsets.time_s[0]:.4f} s to "
+        f"{onsets.time_s[-1]:.4f} s")
 
     models = config.models
     workers = max(1, min(settings.workers, len(models)))
@@ -274,6 +356,10 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     summary = {
         "model": config.model,
         "n_onsets": len(onsets),
+        "roll": fitted.roll,
+        "n_rolls": len(fitted.sizes),
+        "missing_bounces": data.missing,
+        "notes": fitted.notes,
         "parameters": parameters,
         "fixed": {EXPORT[name][0]: prior.value * EXPORT[name][1]
                   for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
@@ -282,8 +368,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         "verdict": verdict,
         "diagnostics": model_diagnostics,
         "evidence": evidence_entries,
-        "onsets": [{"time_s": float(t), "sigma_s": float(s)}
-                   for t, s in zip(onsets.time_s, onsets.sigma_s, strict=True)],
+        "onsets": [{"time_s": float(t), "sigma_s": float(s), "bounce": int(k)}
+                   for t, s, k in zip(onsets.time_s, onsets.sigma_s, data.bounces,
+                                      strict=True)],
         "config": config.raw,
         "source": None if isinstance(source, OnsetTable) else str(source),
         "version": __version__,

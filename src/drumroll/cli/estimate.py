@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from drumroll.cli.arguments import positive_int
+from drumroll.cli.arguments import non_negative_int, positive_int
 from drumroll.cli.progress import Progress
 from drumroll.config import load_config
 from drumroll.errors import DrumrollError
@@ -34,6 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="CONFIG.toml", help="config with the model and its priors")
     parser.add_argument("-o", "--out", type=Path, help="output folder (default: "
                         "./<source stem>-estimate/)")
+    parser.add_argument("--roll", type=non_negative_int, metavar="N",
+                        help="which roll to fit when the recording holds several (0, 1, 2, "
+                        "… in time order; default: the longest)")
     parser.add_argument("--truth", type=Path, help="truth JSON of a simulated recording "
                         "(drawn on the corner plot)")
     parser.add_argument("--seed", type=int, help="override [sampler] seed")
@@ -111,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(out_dir, output_files(include_onsets_figure=is_audio), overwrite=args.force)
     progress = Progress(quiet=args.quiet)
     with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
-        result = estimate(source, config, progress=progress.say)
+        result = estimate(source, config, roll=args.roll, progress=progress.say)
     with progress.stage(f"writing {out_dir}"):
         write_outputs(result, out_dir, overwrite=args.force, truths=truths,
                       workers=args.workers)
@@ -121,11 +124,13 @@ def run(args: argparse.Namespace) -> int:
 
 
 def terminal_table(result: Result) -> str:
-    """The compact table: parameter, mean, sd, interval, R-hat, ESS; then the verdict."""
+    """The notes on the onsets (other rolls, missing bounces), then the compact table:
+    parameter, mean, sd, interval, R-hat, ESS; then the verdict."""
     summary = result.summary
     parameters = summary["parameters"]
     hdi = next(iter(parameters.values()))["hdi_prob"]
-    lines = [f"{summary['model']}: {summary['n_onsets']} onsets",
+    lines = [f"note: {note}" for note in summary.get("notes", [])]
+    lines += [f"{summary['model']}: {summary['n_onsets']} onsets",
              f"{'parameter':<22} {'mean ± sd':>22} {f'{hdi:.0%} interval':>24} "
              f"{'R-hat':>7} {'ESS':>6}"]
     for name, p in parameters.items():

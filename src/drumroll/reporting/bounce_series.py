@@ -2,8 +2,10 @@
 
 Top panel: the observed flight times T_k = t_k − t_{k−1} on a log axis, with error bars from
 the onset timing (σ_T² = σ_{k−1}² + σ_k², σ_k² = jitter² + extractor σ_k²), and for each
-model the posterior median of its noise-free flight times and their 90 % band. A pure power
-law is a straight line here; the exact pendulum bends slightly.
+model the posterior median of its noise-free flight times and their 90 % band. A flight is
+observed only between the onsets of consecutive bounces k − 1 and k: where a bounce was not
+heard, the two flights on either side of it have no data point (the model's curve runs on).
+A pure power law is a straight line here; the exact pendulum bends slightly.
 
 Bottom panel: the same, minus the main model's median, in milliseconds. The curvature that
 separates the exact pendulum from the small-angle model, invisible on the log plot, shows as
@@ -28,22 +30,32 @@ from drumroll.reporting.plot_style import (
     model_linestyle,
     model_name,
     new_figure,
+    observed_bounces,
     observed_onsets,
     ordered_models,
     save_figure,
+    single_flights,
     style,
 )
 
 
 def observed_flights(idata) -> tuple[np.ndarray, np.ndarray]:
-    """Observed flight times T_1..T_N (s) and their 1σ errors (s).
+    """Observed flight times T_1 … T_K (s) and their 1σ errors (s); entry k − 1 is flight k.
 
-    The error of one interval combines its two onsets, each with the posterior median jitter
-    and the extractor's own sigma in quadrature.
+    Flight k is observed when the onsets of bounces k − 1 and k both are; the flights next
+    to a missing bounce are NaN (the time across the gap spans two or more flights). The
+    error of one flight combines its two onsets, each with the posterior median jitter and
+    the extractor's own sigma in quadrature.
     """
     times, sigmas = observed_onsets(idata)
+    bounces = observed_bounces(idata)
     var = jitter_s(idata) ** 2 + sigmas**2
-    return np.diff(times), np.sqrt(var[:-1] + var[1:])
+    ends = single_flights(bounces)
+    flights = np.full(int(bounces[-1]) if bounces.size else 0, np.nan)
+    errors = flights.copy()
+    flights[bounces[ends] - 1] = times[ends] - times[ends - 1]
+    errors[bounces[ends] - 1] = np.sqrt(var[ends - 1] + var[ends])
+    return flights, errors
 
 
 def _fit_text(idata) -> str:
@@ -115,7 +127,7 @@ def draw_bounce_series(idatas: dict, main_model: str):
     data = ax.errorbar(k, t_obs, yerr=t_err, **kw)
     ax_res.errorbar(k, (t_obs - reference) * 1e3, yerr=t_err * 1e3, **kw)
     handles.insert(0, data)
-    labels.insert(0, f"data ({n} flights, ±1σ)")
+    labels.insert(0, f"data ({int(np.isfinite(t_obs).sum())} flights, ±1σ)")
 
     ax.set_yscale("log")
     ax.set_ylabel("flight time $T_k$ (s)")

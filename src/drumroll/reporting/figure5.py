@@ -1,7 +1,8 @@
 """Figure 5 of the paper: bounce-duration series of several set-ups, one panel per group.
 
 Each run's observed flight times T_k (from its onsets, with ±1σ error bars from the onset
-timing) are drawn with its main model's posterior median curve and 90 % band; the y axis is
+timing; none next to a bounce that was not heard) are drawn with its main model's posterior
+median curve and 90 % band; the y axis is
 logarithmic, where a power law is a straight line. Runs sharing a ``group`` key in the RUNS
 file share a panel (the paper: two pivots | two heights | two drumhead tensions).
 
@@ -41,7 +42,9 @@ def draw_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, dict[str
     ----------
     panels
         ``(panel title or None, [(run label, row data), …])`` per panel; a row's
-        ``flights`` holds ``observed``, ``observed_err``, ``lo``, ``median``, ``hi`` (s).
+        ``flights`` holds ``observed``, ``observed_err``, ``lo``, ``median``, ``hi`` (s),
+        entry k − 1 for flight k (``None`` or NaN where a flight was not observed: the
+        flights next to a missing bounce).
     title
         Figure title (optional).
     """
@@ -55,7 +58,8 @@ def draw_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, dict[str
         for j, (label, row) in enumerate(runs):
             color, marker = RUN_COLORS[j % len(RUN_COLORS)], _MARKERS[j % len(_MARKERS)]
             f = row["flights"]
-            observed, err = np.asarray(f["observed"], float), np.asarray(f["observed_err"])
+            observed = np.asarray(f["observed"], float)  # None (a missing flight) → NaN
+            err = np.asarray(f["observed_err"], float)
             lo, mid, hi = (np.asarray(f[k], float) for k in ("lo", "median", "hi"))
             count = min(observed.size, mid.size)
             k = np.arange(1, count + 1)

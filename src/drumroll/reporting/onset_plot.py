@@ -1,8 +1,10 @@
 """A picture to check detected onsets by eye (after the paper's Figure 4).
 
 Three panels: the whole recording with every onset marked; a zoom on the fastest part of the
-roll at full resolution, where mistakes would show; and the flight times against bounce
-number on a log scale, where a drumroll is close to a straight line.
+(longest) roll at full resolution, where mistakes would show; and the flight times against
+bounce number on a log scale, where a drumroll is close to a straight line (one line per
+roll; no flight is drawn next to a bounce that was not heard, see
+:func:`~drumroll.reporting.plot_style.single_flights`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 from drumroll import fileio
 from drumroll.audio.io import iter_blocks, probe, read_excerpt
 from drumroll.onsets.table import OnsetTable
+from drumroll.reporting.plot_style import single_flights
 
 #: Points in the overview's min/max envelope (memory stays small for an hour-long file).
 _OVERVIEW_BINS = 4000
@@ -59,10 +62,11 @@ def draw_onset_figure(audio: str | os.PathLike[str], table: OnsetTable):
     ax_all.set_title(f"{Path(audio).name}: waveform and detected impacts")
     ax_all.legend(loc="upper right", fontsize=8)
 
-    # Zoom: the last (fastest) stretch of the roll, about eight bounces.
-    k0 = max(0, len(t) - 9)
-    span = t[-1] - t[k0] if len(t) > 1 else 0.05
-    z_lo, z_hi = t[k0] - 0.25 * span - 0.002, t[-1] + 0.35 * span + 0.002
+    # Zoom: the last (fastest) stretch of the (longest) roll, about eight bounces.
+    t_roll = t[table.roll == table.longest_roll] if len(t) else t
+    k0 = max(0, len(t_roll) - 9)
+    span = t_roll[-1] - t_roll[k0] if len(t_roll) > 1 else 0.05
+    z_lo, z_hi = t_roll[k0] - 0.25 * span - 0.002, t_roll[-1] + 0.35 * span + 0.002
     ax_all.axvspan(z_lo, z_hi, color="tab:blue", alpha=0.12, lw=0)
     a, b = max(int(z_lo * sr), 0), min(int(np.ceil(z_hi * sr)), info.frames)
     x = read_excerpt(audio, a, b)
@@ -83,9 +87,19 @@ def draw_onset_figure(audio: str | os.PathLike[str], table: OnsetTable):
     ax_zoom.set_ylabel("amplitude")
     ax_zoom.set_title("zoom on the fastest bounces (red: onsets, shaded ±1σ)")
 
-    if len(t) > 1:
-        k = np.arange(1, len(t))
-        ax_int.semilogy(k, np.diff(t) * 1e3, "o-", color="tab:red", ms=3.5, lw=0.8)
+    ends = single_flights(table.bounce, table.roll)
+    colors = ("tab:red", "tab:blue", "tab:green", "tab:orange", "tab:purple", "tab:brown")
+    for j, number in enumerate(table.rolls):
+        mine = ends[table.roll[ends] == number]
+        if not mine.size:
+            continue
+        k = np.arange(1, int(table.bounce[mine].max()) + 1)
+        flights = np.full(k.size, np.nan)  # NaN next to a missing bounce: the line breaks
+        flights[table.bounce[mine] - 1] = (t[mine] - t[mine - 1]) * 1e3
+        ax_int.semilogy(k, flights, "o-", color=colors[j % len(colors)], ms=3.5, lw=0.8,
+                        label=f"roll {number}" if len(table.rolls) > 1 else None)
+    if len(table.rolls) > 1:
+        ax_int.legend(loc="upper right", fontsize=8)
     ax_int.set_xlabel("bounce number k")
     ax_int.set_ylabel("flight time T_k (ms)")
     ax_int.set_title("flight times (a drumroll is close to a straight line here)")

@@ -1,6 +1,7 @@
 """``report.md``: the result of ``drumroll estimate`` as a physicist would write it up.
 
-Sections: the parameters of the chosen model (mean ± sd rounded to the error, the highest-
+Sections: notes on the onsets (other rolls in the recording, bounces that were not heard),
+the parameters of the chosen model (mean ± sd rounded to the error, the highest-
 density interval with the same decimals, R-hat and effective sample sizes), the model
 comparison with its verdict, the sampler diagnostics in plain words, the figures (relative
 links, so the folder can be moved or zipped as a whole), and, folded away, the onset times
@@ -23,7 +24,7 @@ from typing import Any
 from drumroll import fileio
 from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
 from drumroll.reporting.numbers import error_decimals, format_value_error
-from drumroll.reporting.plot_style import DERIVED_NAMES, model_name
+from drumroll.reporting.plot_style import DERIVED_NAMES, model_name, single_flights
 
 #: Plain-text symbols (Markdown has no mathtext).
 SYMBOLS: dict[str, str] = {
@@ -282,38 +283,48 @@ def figures_section(figures: dict[str, Path | str], report_dir: Path) -> list[st
     return lines
 
 
-def _onset_rows(onsets: list[Any]) -> list[tuple[float, float | None]]:
+def _onset_rows(onsets: list[Any]) -> list[tuple[int, float, float | None]]:
+    """(bounce number, time, sigma) per onset; without bounce numbers, 0, 1, 2, …"""
     rows = []
     for item in onsets:
         if isinstance(item, dict):
             t = next((item[k] for k in ("time_s", "time", "t") if k in item), None)
             s = next((item[k] for k in ("sigma_s", "sigma") if k in item), None)
+            k = item.get("bounce")
         else:
-            t, s = item, None
+            t, s, k = item, None, None
         if _finite(t):
-            rows.append((float(t), float(s) if _finite(s) else None))
+            k = int(k) if _finite(k) else (rows[-1][0] + 1 if rows else 0)
+            rows.append((k, float(t), float(s) if _finite(s) else None))
     return rows
 
 
 def onsets_section(onsets: list[Any] | None) -> list[str]:
-    """A folded table of the onset times and intervals."""
+    """A folded table of the onsets: bounce number, time and flight time (only between
+    consecutive bounces: across a missing bounce the interval is no single flight)."""
     rows = _onset_rows(onsets or [])
     if not rows:
         return []
-    has_sigma = any(s is not None and s > 0 for _, s in rows)
+    has_sigma = any(s is not None and s > 0 for _, _, s in rows)
     lines = ["<details><summary>Onset times "
              f"({len(rows)} onsets)</summary>", "",
              "| k | onset time (s) | flight time T_k (ms) |" + (" σ (ms) |" if has_sigma else ""),
              "|---:|---:|---:|" + ("---:|" if has_sigma else "")]
-    previous = None
-    for k, (t, s) in enumerate(rows):
-        interval = f"{(t - previous) * 1e3:.3f}" if previous is not None else "—"
+    ends = set(single_flights([k for k, _, _ in rows]).tolist())
+    for i, (k, t, s) in enumerate(rows):
+        interval = "—" if i == 0 else "— (after a gap)"
+        if i in ends:
+            interval = f"{(t - rows[i - 1][1]) * 1e3:.3f}"
         line = f"| {k} | {t:.6f} | {interval} |"
         if has_sigma:
             line += f" {s * 1e3:.3f} |" if s is not None else " — |"
         lines.append(line)
-        previous = t
     return [*lines, "", "</details>", ""]
+
+
+def notes_section(notes: list[str] | None) -> list[str]:
+    """The notes on the onsets (other rolls, renumbering, missing bounces), one line each."""
+    return [line for note in notes or [] for line in (f"> **Note:** {_cell(note)}.", "")]
 
 
 def config_section(config: dict[str, Any] | None) -> list[str]:
@@ -350,10 +361,13 @@ def render_report(summary: dict[str, Any], figures: dict[str, Path | str] | None
     lines = [f"# Drumroll estimate: {_cell(Path(str(source)).name)}", ""]
     facts = [f"Model: **{model_name(model)}** (`{model}`)"]
     if _finite(summary.get("n_onsets")):
-        facts.append(f"{int(float(summary['n_onsets']))} onsets")
+        of_roll = (f" (roll {summary['roll']} of {summary['n_rolls']})"
+                   if (summary.get("n_rolls") or 1) > 1 else "")
+        facts.append(f"{int(float(summary['n_onsets']))} onsets{of_roll}")
     if summary.get("version"):
         facts.append(f"drumroll {summary['version']}")
     lines += [", ".join(facts) + ".", ""]
+    lines += notes_section(summary.get("notes"))
     headline = _headline(summary)
     if headline:
         lines += [headline, ""]
@@ -378,8 +392,9 @@ def write_report(path: str | os.PathLike[str], summary: dict[str, Any],
     path
         Destination, e.g. ``out/report.md``; figures are linked relative to its folder.
     summary
-        The estimate's summary (model, n_onsets, parameters, comparison, preferred,
-        verdict, diagnostics, onsets, config, version, source; see the module docstring).
+        The estimate's summary (model, n_onsets, roll, n_rolls, notes, parameters,
+        comparison, preferred, verdict, diagnostics, onsets, config, version, source; see the
+        module docstring).
     figures
         Figure key (``"bounce_series"``, ``"corner"``, …, ``"onsets"``) → PNG path.
     overwrite

@@ -1,4 +1,4 @@
-"""Posterior predictive check: onset-time residuals against time, one panel per model.
+"""Posterior predictive check: onset-time residuals against bounce number, one panel per model.
 
 Each panel shows observed onset time minus the posterior median prediction (milliseconds)
 with the 90 % posterior predictive band (replicated onsets, jitter included) around the same
@@ -8,6 +8,7 @@ does not leaves a structured pattern (a wave, a trend; a lag-1 correlation near 
 a large jitter to cover it: then the model, not the microphone, is the limit. The panels
 share the time axis; each has its own (symmetric) residual scale, quoted in its title as the
 rms residual and the fitted jitter, so that the scatter of a good fit is not squashed flat.
+The x axis is the bounce number k, so a missing bounce shows as a gap between the points.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from drumroll.reporting.plot_style import (
     model_color,
     model_name,
     new_figure,
+    observed_bounces,
     observed_onsets,
     ordered_models,
     save_figure,
@@ -33,7 +35,8 @@ from drumroll.reporting.plot_style import (
 
 
 def noise_free_onsets(idata) -> np.ndarray | None:
-    """Draws of the model's noise-free onset times t0 + Σ T_j, (draws, onsets); None if absent."""
+    """Draws of the model's noise-free impact times t0 + Σ_{j ≤ k} T_j at every bounce
+    k = 0 … K, (draws, K + 1); None if absent."""
     if "t0_s" not in idata.posterior or "flight_time_model" not in idata.posterior_predictive:
         return None
     t0 = flat_draws(idata, "posterior", "t0_s")
@@ -48,18 +51,20 @@ def onset_residuals(idata) -> dict[str, np.ndarray]:
     Returns
     -------
     dict
-        ``time`` (observed onsets), ``residual`` (observed − median replicated onset),
+        ``time`` (observed onsets), ``bounce`` (their bounce numbers), ``residual``
+        (observed − median replicated onset),
         ``sigma`` (extractor sigmas), ``pp_lo``/``pp_hi`` (90 % posterior predictive band),
         and, when the noise-free prediction can be built, ``model_lo``/``model_hi``.
     """
     times, sigmas = observed_onsets(idata)
     replicated = flat_draws(idata, "posterior_predictive", "onset_time")
     lo, mid, hi = band(replicated)
-    out = {"time": times, "residual": times - mid, "sigma": sigmas,
+    bounces = observed_bounces(idata)
+    out = {"time": times, "bounce": bounces, "residual": times - mid, "sigma": sigmas,
            "pp_lo": lo - mid, "pp_hi": hi - mid}
     model = noise_free_onsets(idata)
-    if model is not None and model.shape[1] == times.size:
-        m_lo, _, m_hi = band(model)
+    if model is not None and model.shape[1] > bounces[-1]:
+        m_lo, _, m_hi = band(model[:, bounces])
         out["model_lo"], out["model_hi"] = m_lo - mid, m_hi - mid
     return out
 
@@ -76,10 +81,24 @@ def lag_one_correlation(residual: np.ndarray) -> float:
     return float(np.sum(r[1:] * r[:-1]) / denominator) if denominator > 0 else float("nan")
 
 
+def _every_bounce(bounces: np.ndarray):
+    """k from the first to the last bounce, and a map from per-onset values to values at
+    every k (NaN where no onset was observed)."""
+    k = np.arange(bounces[0], bounces[-1] + 1)
+
+    def at(values: np.ndarray) -> np.ndarray:
+        out = np.full(k.size, np.nan)
+        out[bounces - bounces[0]] = values
+        return out
+
+    return k, at
+
+
 def draw_residuals(idatas: dict, main_model: str | None = None):
     """Build the residual figure (a :class:`matplotlib.figure.Figure`), one panel per model."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
 
     models = ordered_models(idatas, main_model)
     fig = new_figure((8.2, 0.7 + 2.1 * len(models)), layout="constrained")
@@ -88,15 +107,17 @@ def draw_residuals(idatas: dict, main_model: str | None = None):
         idata = idatas[model]
         r = onset_residuals(idata)
         color = model_color(model, i)
-        t = r["time"]
+        t = r["bounce"]
         ms = 1e3
-        ax.fill_between(t, r["pp_lo"] * ms, r["pp_hi"] * ms, color=color, alpha=0.2, lw=0,
-                        zorder=1)
+        # Bands and the connecting line break where a bounce is missing (NaN there).
+        k, at = _every_bounce(t)
+        ax.fill_between(k, at(r["pp_lo"]) * ms, at(r["pp_hi"]) * ms, color=color, alpha=0.2,
+                        lw=0, zorder=1)
         if "model_lo" in r:
-            ax.fill_between(t, r["model_lo"] * ms, r["model_hi"] * ms, color=color, alpha=0.45,
-                            lw=0, zorder=2)
+            ax.fill_between(k, at(r["model_lo"]) * ms, at(r["model_hi"]) * ms, color=color,
+                            alpha=0.45, lw=0, zorder=2)
         ax.axhline(0.0, color="0.35", lw=0.8, zorder=3)
-        ax.plot(t, r["residual"] * ms, color="0.45", lw=0.7, zorder=4)
+        ax.plot(k, at(r["residual"]) * ms, color="0.45", lw=0.7, zorder=4)
         yerr = r["sigma"] * ms if np.any(r["sigma"] > 0) else None
         ax.errorbar(t, r["residual"] * ms, yerr=yerr, fmt="o", ms=4, color=DATA_COLOR,
                     mfc="white", mew=1.1, elinewidth=1.0, capsize=0, zorder=5)
@@ -118,7 +139,8 @@ def draw_residuals(idatas: dict, main_model: str | None = None):
         ax.set_ylabel("observed − median\nprediction (ms)")
         ax.grid(True, color="0.92", lw=0.6)
         ax.set_axisbelow(True)
-    axes[-1].set_xlabel("onset time in the recording (s)")
+    axes[-1].set_xlabel("bounce number $k$")
+    axes[-1].xaxis.set_major_locator(MaxNLocator(integer=True, steps=[1, 2, 5, 10]))
     handles = [Line2D([], [], ls="", marker="o", ms=4, color=DATA_COLOR, mfc="white",
                       mew=1.1, label="detected onsets")]
     handles.append(Patch(facecolor="0.5", alpha=0.25, lw=0,

@@ -14,6 +14,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 import os
 import time
 from collections.abc import Callable
@@ -28,7 +29,7 @@ from drumroll.table.runs import Run, RunsFile, validate_estimation
 from drumroll.workers import process_pool
 
 #: Bumped whenever the cached row's layout changes (old entries are then recomputed).
-CACHE_SCHEMA = 1
+CACHE_SCHEMA = 2
 #: Monte Carlo draws of the computed t_B (the sd's relative precision is ~0.5 %).
 PREDICT_DRAWS = 20_000
 #: Seed of the computed t_B's draws.
@@ -87,11 +88,13 @@ def code_digest() -> str:
 
 
 def run_key(run: Run) -> str:
-    """The cache key of a run: its source's bytes, effective config, the drumroll version and
-    its code (:func:`code_digest`)."""
+    """The cache key of a run: its source's bytes, the roll fitted, the effective config, the
+    drumroll version and its code (:func:`code_digest`)."""
     document = {"source_sha256": file_digest(run.source), "config": run.raw,
                 "version": __version__, "code": code_digest(), "schema": CACHE_SCHEMA,
                 "predict": [PREDICT_DRAWS, PREDICT_SEED]}
+    if run.roll is not None:  # (absent otherwise, so that the keys of other runs stay put)
+        document["roll"] = run.roll
     text = json.dumps(document, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:40]
 
@@ -102,8 +105,9 @@ def _value_error(entry: dict[str, Any] | None) -> dict[str, float | None]:
     return {"value": entry["mean"], "err": entry["sd"]}
 
 
-def compute_run(source: str, raw: dict[str, Any]) -> dict[str, Any]:
-    """Estimate one run and propagate its priors; the JSON-ready row data.
+def compute_run(source: str, raw: dict[str, Any], roll: int | None = None) -> dict[str, Any]:
+    """Estimate one run (roll ``roll`` of its source; default the longest) and propagate its
+    priors; the JSON-ready row data.
 
     Runs in a worker (a process or a Dask worker): it takes only picklable, plain inputs and
     imports the heavy modules itself.
@@ -113,9 +117,11 @@ def compute_run(source: str, raw: dict[str, Any]) -> dict[str, Any]:
     dict
         ``model``, ``n_onsets``, ``computed_t_b`` (model → value/err), ``fitted_t_b``,
         ``alpha`` (value/err: posterior mean and sd of the main model), ``parameters`` (the
-        main model's summary), ``preferred``, ``verdict``, ``warnings``, ``flights`` (observed
-        flight times with errors and the main model's posterior median and 90 % band, for
-        Figure 5) and ``seconds``.
+        main model's summary), ``preferred``, ``verdict``, ``warnings``, ``notes`` (other
+        rolls, missing bounces), ``roll`` and ``n_rolls``, the fitted onsets (``onsets_s``,
+        ``onset_sigmas_s``, ``onset_bounces``), ``flights`` (observed flight times with
+        errors, ``None`` where not observed, and the main model's posterior median and 90 %
+        band, for Figure 5) and ``seconds``.
     """
     from drumroll.config import parse_config
     from drumroll.inference.prior_predictive import propagate
@@ -126,7 +132,7 @@ def compute_run(source: str, raw: dict[str, Any]) -> dict[str, Any]:
 
     started = time.perf_counter()
     config = parse_config(raw)
-    result = estimate(source, config)
+    result = estimate(source, config, roll=roll)
     computed: dict[str, dict[str, float]] = {}
     if config.stick is not None:
         for model in GEOMETRIC_MODELS:
@@ -150,12 +156,22 @@ def compute_run(source: str, raw: dict[str, Any]) -> dict[str, Any]:
         "preferred": result.preferred,
         "verdict": result.summary["verdict"],
         "warnings": warnings,
+        "notes": result.summary["notes"],
+        "roll": result.summary["roll"],
+        "n_rolls": result.summary["n_rolls"],
         "onsets_s": [o["time_s"] for o in result.summary["onsets"]],
         "onset_sigmas_s": [o["sigma_s"] for o in result.summary["onsets"]],
-        "flights": {"observed": observed.tolist(), "observed_err": observed_err.tolist(),
+        "onset_bounces": [o["bounce"] for o in result.summary["onsets"]],
+        "flights": {"observed": _finite_or_none(observed),
+                    "observed_err": _finite_or_none(observed_err),
                     "lo": lo.tolist(), "median": median.tolist(), "hi": hi.tolist()},
         "seconds": time.perf_counter() - started,
     }
+
+
+def _finite_or_none(values: Any) -> list[float | None]:
+    """A list for JSON: None where a value is NaN (a flight that was not observed)."""
+    return [float(v) if math.isfinite(v) else None for v in values]
 
 
 def read_cached(path: Path) -> dict[str, Any] | None:
@@ -238,7 +254,8 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
         if executor is None and n == 1:
             for i in todo:
                 try:
-                    row = compute_run(str(runs.runs[i].source), runs.runs[i].raw)
+                    row = compute_run(str(runs.runs[i].source), runs.runs[i].raw,
+                                      runs.runs[i].roll)
                 except DrumrollError as exc:
                     fail(i, exc)
                     continue
@@ -261,7 +278,8 @@ def _submit_all(executor: Executor, runs: RunsFile, todo: list[int],
     """Submit the runs in ``todo``; hand each result to ``finish`` (or its user error to
     ``fail``) as it completes. Anything else, Ctrl-C included, cancels the runs not started."""
     futures: dict[Future, int] = {
-        executor.submit(compute_run, str(runs.runs[i].source), runs.runs[i].raw): i
+        executor.submit(compute_run, str(runs.runs[i].source), runs.runs[i].raw,
+                        runs.runs[i].roll): i
         for i in todo}
     try:
         for future in as_completed(futures):

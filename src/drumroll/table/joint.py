@@ -173,18 +173,18 @@ def fit_joint(runs: RunsFile, rows: list[dict[str, Any]]) -> dict[str, Any]:
     from drumroll.inference.posterior import LogPosterior
     from drumroll.inference.sampling import run_emcee
     from drumroll.inference.settings import estimate_settings
-    from drumroll.pipeline import load_onsets
+    from drumroll.pipeline import choose_roll, load_onsets
 
     parts, settings = [], None
     for run, row in zip(runs.runs, rows, strict=True):
         config = validate_estimation(run)
         own = estimate_settings(config.sections)
         settings = settings or own
-        if "onset_sigmas_s" in row:
-            data = OnsetData.from_arrays(row["onsets_s"], row["onset_sigmas_s"])
+        if "onset_bounces" in row:  # the onsets the run's own fit used
+            data = OnsetData.from_arrays(row["onsets_s"], row["onset_sigmas_s"],
+                                         row["onset_bounces"])
         else:
-            onsets = load_onsets(run.source)
-            data = OnsetData.from_arrays(onsets.time_s, onsets.sigma_s)
+            data = choose_roll(load_onsets(run.source), run.roll, str(run.source)).data
         parts.append(LogPosterior.build(config, config.model, data, own.noise, own.nu))
     shared = tuple(PARAMETERS[key].name for key in runs.share)
     posterior = JointPosterior(parts, [r.label for r in runs.runs], shared)

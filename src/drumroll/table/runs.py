@@ -14,6 +14,7 @@ The format (a contract; paths are relative to the RUNS.toml file)::
     label = "d110"
     source = "roll_d110.flac"     # audio or onset file
     group = "pivot"               # optional: runs sharing a group share a Figure 5 panel
+    roll = 1                      # optional: which roll of the source (default the longest)
     config = "other.toml"         # optional: instead of base
     [run.priors]                  # per-run overrides, same keys as the config's [priors]
     pivot_mm = { dist = "normal", mu = 110, sigma = 2 }
@@ -33,14 +34,14 @@ from typing import Any
 
 from drumroll.config import Config, parse_config
 from drumroll.config.loader import read_toml
-from drumroll.config.validate import check_keys, did_you_mean, string, table, type_name
+from drumroll.config.validate import check_keys, did_you_mean, number, string, table, type_name
 from drumroll.errors import ConfigError
 from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS, ParameterSpec
 
 #: Config sections a RUNS file (top level or one run) may override.
 OVERRIDABLE = ("priors", "stick", "sampler", "likelihood", "report")
 _TOP_LEVEL = ("base", "vary", "title", "share", "run", *OVERRIDABLE)
-_RUN_KEYS = ("label", "source", "config", "group", *OVERRIDABLE)
+_RUN_KEYS = ("label", "source", "config", "group", "roll", *OVERRIDABLE)
 #: Sections of a config that estimation never reads (left out of the effective config).
 _IGNORED_SECTIONS = ("simulate",)
 #: Sections parsed by the estimation code (validated by :func:`validate_estimation`).
@@ -67,6 +68,8 @@ class Run:
         :func:`validate_estimation`).
     group
         Figure 5 panel (``None``: the single default panel).
+    roll
+        Which roll of the source to fit (0, 1, 2, … in time order; ``None``: the longest).
     """
 
     label: str
@@ -74,6 +77,7 @@ class Run:
     raw: dict[str, Any]
     config: Config
     group: str | None = None
+    roll: int | None = None
 
 
 @dataclass(frozen=True)
@@ -265,6 +269,8 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
     else:
         raise ConfigError(f"{where}: no config (give 'base' at the top or 'config' here)")
     group = string(entry["group"], f"{where}.group") if "group" in entry else None
+    roll = (int(number(entry["roll"], f"{where}.roll", nonnegative=True, integer=True))
+            if "roll" in entry else None)
     overrides = {**{k: dict(v) for k, v in common.items()}}
     for section in OVERRIDABLE:
         if section in entry:
@@ -281,7 +287,7 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
                 table(raw[section], section)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    return Run(label=label, source=source, raw=raw, config=config, group=group)
+    return Run(label=label, source=source, raw=raw, config=config, group=group, roll=roll)
 
 
 def _check_run(run: Run, vary: str | None, share: tuple[str, ...]) -> None:
