@@ -1,7 +1,7 @@
 """Benchmark: drumroll's onset extractor against librosa on simulated recordings with truth.
 
 Usage: ``python benchmarks/onsets.py [--trials N] [--first-seed S] [--jitter-ms J] [--quick]
-[--no-memory] [--no-peers]``
+[--no-memory] [--no-peers] [--no-real-hits | --real-hits-only]``
 
 Per condition: F1 at ±2 ms (misses counted only for impacts with truth ``local_snr_db >= 0``;
 a detection matching no impact is a false positive; one matching an inaudible impact is
@@ -9,9 +9,12 @@ neither), recall over all impacts, offset-free timing error (MAD of detected - t
 onsets before the first impact / after the last one. Peers: librosa ``onset_detect`` with its
 defaults, and with hop 64 and ``backtrack=True``. The grid is every SNR (30/20/12 dB) x room
 and disturbance condition x sample rate (22.05/44.1/48/96 kHz); then recordings that hold no
-roll (one hit, two, three unrelated ones), which should give none. Then throughput on a 60 s
-44.1 kHz file (best of five, one core) and peak memory (tracemalloc and peak RSS of a fresh
-subprocess) on 10- and 60-minute files written blockwise.
+roll (one hit, two, three unrelated ones), which should give none. Then the same rolls
+(same seeds) made of real recorded hits (``data/samples``: three AVL snares in five velocity
+layers, the Sonic Pi snare in two, claves for a ball) in two measured rooms, scored the same
+way (``--no-real-hits`` skips this grid, ``--real-hits-only`` runs nothing else). Then
+throughput on a 60 s 44.1 kHz file (best of five, one core) and peak memory (tracemalloc and
+peak RSS of a fresh subprocess) on 10- and 60-minute files written blockwise.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import soundfile as sf
 
 from drumroll.errors import AudioError
 from drumroll.onsets import detect
-from drumroll.simulation import Disturbances, Room, render
+from drumroll.simulation import Disturbances, HitBank, MeasuredRoom, Room, render, render_hits
 
 
 def roll_truth(rng: np.random.Generator, jitter_s: float = 0.0
@@ -99,23 +102,81 @@ CONDITIONS = {
 
 def run_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 0,
              jitter_s: float = 0.0) -> None:
-    rows = []
     rates = (44100,) if quick else (22050, 44100, 48000, 96000)
     grid = [(snr, name, sr) for sr in rates for snr in (30, 20, 12) for name in CONDITIONS]
     if quick:
         grid = [g for g in grid if g[1] in ("clean", "all")]
+
+    def make(snr: int, name: str, sr: int):
+        cond = CONDITIONS[name]
+
+        def recording(times, speeds, rng):
+            dist = Disturbances(snr_db=snr, hum_hz=cond["hum"], spurious=cond["spurious"])
+            return render(times, speeds, sample_rate=sr, room=cond["room"], disturbances=dist,
+                          rng=rng)
+        return recording
+
+    score_grid([(snr, f"{snr} dB {name} {sr / 1000:g} kHz", make(snr, name, sr))
+                for snr, name, sr in grid], trials, with_peers, first_seed, jitter_s)
+
+
+SAMPLES = Path(__file__).resolve().parents[1] / "data" / "samples"
+#: Real recorded hits (velocity layers, softest first) and measured rooms, in data/samples.
+REAL_HITS = {
+    "pearl": [f"avl/38-PearlSnare-{i}.flac" for i in range(1, 6)],
+    "pearl2": [f"avl/38-PearlSnare2-{i}.flac" for i in range(1, 6)],
+    "porkpie": [f"avl/38-PorkpieSnare-{i}.flac" for i in range(1, 6)],
+    "sonic": ["sonic_pi/drum_snare_soft.flac", "sonic_pi/drum_snare_hard.flac"],
+    "claves": ["js30/claves-1.ogg"],
+}
+REAL_ROOMS = {"live": "rooms/genesis6_live_room.flac",
+              "hall": "rooms/arthur_sykes_rymer_auditorium.flac"}
+
+
+def run_real_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 0,
+                  jitter_s: float = 0.0) -> None:
+    """The grid of :func:`run_grid` with real recorded hits in measured rooms: every snare
+    and the claves x both rooms x SNR x sample rate, the same rolls (same seeds), scored the
+    same way. Hits are layered by speed with the defaults of ``drumroll simulate`` (6 dB per
+    layer, level exponent 1.2, 1.5 dB spread, room at -12 dB)."""
+    print("\nreal recorded hits (data/samples) in measured rooms (live: Genesis 6 live room, "
+          "hall: Arthur Sykes Rymer Auditorium)")
+    rates = (44100,) if quick else (22050, 44100, 48000, 96000)
+    grid = [(snr, inst, room, sr) for sr in rates for snr in (30, 20, 12)
+            for inst in REAL_HITS for room in REAL_ROOMS]
+    if quick:
+        grid = [g for g in grid if g[1] in ("pearl", "claves")]
+    banks: dict[tuple[str, int], HitBank] = {}
+    rooms: dict[tuple[str, int], MeasuredRoom] = {}
+
+    def make(snr: int, inst: str, room: str, sr: int):
+        def recording(times, speeds, rng):
+            if (inst, sr) not in banks:
+                banks[inst, sr] = HitBank.load([SAMPLES / f for f in REAL_HITS[inst]], sr)
+            if (room, sr) not in rooms:
+                rooms[room, sr] = MeasuredRoom.load(SAMPLES / REAL_ROOMS[room], sr)
+            return render_hits(times, speeds, bank=banks[inst, sr], room=rooms[room, sr],
+                               disturbances=Disturbances(snr_db=snr), rng=rng)
+        return recording
+
+    score_grid([(snr, f"{snr} dB {inst} {room} {sr / 1000:g} kHz", make(snr, inst, room, sr))
+                for snr, inst, room, sr in grid], trials, with_peers, first_seed, jitter_s)
+
+
+def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: float) -> None:
+    """Score every ``(snr, label, recording)`` of ``grid`` over ``trials`` rolls; print a row
+    per condition and method, then the summary per SNR and the sigma_s check.
+    ``recording(times, speeds, rng)`` renders one roll."""
+    rows = []
     print(f"{'condition':28s} {'method':15s} {'F1':>5s} {'recall':>6s} {'MAD ms':>7s} "
           f"{'before':>6s} {'after':>5s}")
     zs: dict[int, list] = {}
-    for snr, name, sr in grid:
-        cond = CONDITIONS[name]
+    for snr, label, recording in grid:
         acc: dict[str, list] = {}
         for seed in range(first_seed, first_seed + trials):
             rng = np.random.default_rng(1000 * snr + seed)
             times, speeds = roll_truth(rng, jitter_s)
-            dist = Disturbances(snr_db=snr, hum_hz=cond["hum"], spurious=cond["spurious"])
-            r = render(times, speeds, sample_rate=sr, room=cond["room"], disturbances=dist,
-                       rng=rng)
+            r = recording(times, speeds, rng)
             truth, audible = r.impact_times_s, r.local_snr_db >= 0
             try:
                 table = detect(r.samples, r.sample_rate)
@@ -130,18 +191,17 @@ def run_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 0,
                 acc.setdefault(method, []).append(evaluate(det, truth, audible))
         for method, vals in acc.items():
             v = np.array(vals, dtype=float)
-            label = f"{snr} dB {name} {sr / 1000:g} kHz"
             finite = v[:, 2][np.isfinite(v[:, 2])]
             mad = 1e3 * np.median(finite) if finite.size else np.nan
             print(f"{label:28s} {method:15s} {np.mean(v[:, 0]):5.3f} {np.mean(v[:, 1]):6.3f} "
                   f"{mad:7.3f} {int(v[:, 3].sum()):6d} "
                   f"{int(v[:, 4].sum()):5d}")
-            rows.append((snr, name, sr, method, v))
+            rows.append((snr, method, v))
         sys.stdout.flush()
     print("\nsummary over conditions and sample rates (mean F1, min F1 of any roll)")
-    for method in dict.fromkeys(r[3] for r in rows):
+    for method in dict.fromkeys(r[1] for r in rows):
         for snr in (30, 20, 12):
-            vs = np.concatenate([r[4] for r in rows if r[0] == snr and r[3] == method])
+            vs = np.concatenate([r[2] for r in rows if r[0] == snr and r[1] == method])
             mads = vs[:, 2][np.isfinite(vs[:, 2])]
             mad = f"{1e3 * np.median(mads):.3f}" if mads.size else "  nan"
             print(f"  {method:15s} {snr} dB: F1 {np.mean(vs[:, 0]):.3f} "
@@ -268,11 +328,23 @@ def main() -> None:
     ap.add_argument("--no-memory", action="store_true")
     ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--no-grid", action="store_true", help="only throughput and memory")
+    real = ap.add_mutually_exclusive_group()
+    real.add_argument("--no-real-hits", action="store_true",
+                      help="skip the grid of real recorded hits in measured rooms")
+    real.add_argument("--real-hits-only", action="store_true",
+                      help="only the grid of real recorded hits in measured rooms")
     args = ap.parse_args()
+    if args.real_hits_only:
+        run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
+                      1e-3 * args.jitter_ms)
+        return
     if not args.no_grid:
         run_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
                  1e-3 * args.jitter_ms)
         false_rolls(args.trials, args.first_seed)
+        if not args.no_real_hits:
+            run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
+                          1e-3 * args.jitter_ms)
     throughput()
     if not args.no_memory:
         memory()
