@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import signal
 
 from drumroll.simulation.disturbances import (
@@ -95,7 +96,7 @@ class ExtraHit:
 _ROOM, _DISTURBANCES = Room(), Disturbances()
 
 
-def render_hits(impact_times_s, impact_speeds_m_s, *, bank: HitBank,
+def render_hits(impact_times_s: ArrayLike, impact_speeds_m_s: ArrayLike, *, bank: HitBank,
                 room: Room | MeasuredRoom = _ROOM,
                 disturbances: Disturbances = _DISTURBANCES, channels: int = 1,
                 extra_hits: Sequence[ExtraHit] = (), rng: np.random.Generator,

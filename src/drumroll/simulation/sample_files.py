@@ -50,7 +50,7 @@ def read_mono(path: str | os.PathLike[str], sample_rate: int) -> np.ndarray:
         One line naming the file: missing, not audio, damaged, empty, or holding NaN or
         infinite samples.
     """
-    info = probe(path)  # one-line errors for missing, unreadable and empty files
+    probe(path)  # one-line errors for missing, unreadable and empty files
     try:
         data, rate = sf.read(Path(path), dtype="float64", always_2d=True)
     except (sf.LibsndfileError, RuntimeError) as exc:
@@ -60,7 +60,7 @@ def read_mono(path: str | os.PathLike[str], sample_rate: int) -> np.ndarray:
     if not np.isfinite(data).all():
         raise AudioError(f"{path}: NaN or infinite samples")
     mono = data.mean(axis=1)
-    return resample(mono, int(rate or info.sample_rate), int(sample_rate))
+    return resample(mono, int(rate), int(sample_rate))
 
 
 def resample(x: np.ndarray, rate_in: int, rate_out: int) -> np.ndarray:
