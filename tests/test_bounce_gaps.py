@@ -405,3 +405,19 @@ def test_onset_figure_draws_each_roll_and_breaks_at_a_gap(two_roll_csv, tmp_path
     sf.write(audio, 0.01 * np.random.default_rng(0).standard_normal(8 * rate), rate)
     figure = write_onset_plot(tmp_path / "onsets.png", audio, read_onsets(path))
     assert figure.stat().st_size > 10_000
+
+
+def test_a_tables_notes_carry_each_runs_notes(tmp_path):
+    from drumroll.table import load_runs, render
+    from drumroll.table.execute import TableResult
+    from test_table import BASE, RUN_H80, fake_row, runs_text, write_onsets
+
+    (tmp_path / "base.toml").write_text(BASE)
+    write_onsets(tmp_path / "h80.txt", "table2_h80")
+    (tmp_path / "runs.toml").write_text(runs_text(RUN_H80))
+    row = fake_row(0.9, 0.25)
+    row["notes"] = ["bounce 3 missing (inaudible or masked): fitted as gap"]
+    result = TableResult(runs=load_runs(tmp_path / "runs.toml"), rows=[row])
+    assert "Note (h80): bounce 3 missing (inaudible or masked): fitted as gap." in render(
+        result, "markdown")
+    assert json.loads(render(result, "json"))["rows"][0]["notes"] == row["notes"]

@@ -71,6 +71,7 @@ def table_rows(result: TableResult) -> list[dict[str, Any]]:
             "preferred": row["preferred"],
             "verdict": row["verdict"],
             "n_onsets": row["n_onsets"],
+            "notes": row.get("notes", []),
             "warnings": row["warnings"],
             "shared": list(result.runs.share),
         }
@@ -127,7 +128,8 @@ def to_markdown(result: TableResult) -> str:
 
 
 def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
-    """Plain-text notes under the table: what the columns are, the joint fit, warnings."""
+    """Plain-text notes under the table: what the columns are, the joint fit, each run's
+    notes on its onsets (other rolls, missing bounces) and warnings."""
     out = ["Computed t_B: the priors (measured geometry with its ±) propagated through the "
            "small-angle model (as in the paper) and the exact pendulum; fitted t_B and α: "
            f"posterior mean ± sd of the {rows[0]['model'] if rows else 'main'} model."]
@@ -145,6 +147,7 @@ def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
             parts = ", ".join(f"{label} {_cell(v)}" for label, v in entry.items())
             out.append(f"Separate fits of {key}: {parts}; {joint['consistency'][key]}.")
     for row in rows:
+        out += [f"Note ({row['label']}): {note}." for note in row["notes"]]
         main = [w for w in row["warnings"] if w.startswith(f"{row['model']}:")]
         for warning in main:
             out.append(f"Warning ({row['label']}): {warning}")
