@@ -195,6 +195,11 @@ def test_every_likelihood_path_agrees_on_gapped_onsets(model, noise):
         coords = SamplerCoordinates(lp.space, data)
         z = coords.to_sampler(x[finite][:20])
         np.testing.assert_allclose(coords.to_parameters(z)[0], x[finite][:20], rtol=1e-9)
+        for row in range(5):  # nested sampling's one-point map, impacts included
+            point, _, impacts_one = coords.to_parameters_one(z[row])
+            np.testing.assert_allclose(point, x[finite][row], rtol=1e-9)
+            assert lp.log_likelihood_one(point, impacts_one) == pytest.approx(
+                lp.log_likelihood_reference(point[None])[0], rel=1e-10)
 
 
 # -- estimate end to end -----------------------------------------------------------------------
