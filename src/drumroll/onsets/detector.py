@@ -1,9 +1,18 @@
-"""``detect``: from a recording (file or array) to the table of impact times."""
+"""``detect``: from a recording (file or array) to the table of every roll's impact times.
+
+The work is a list of stages over one record type, in the way madmom composes processors.
+The recording is streamed once into candidate impacts (:mod:`.candidates`); the tracker
+chooses the rolls among them and numbers their bounces (:mod:`.tracking`); then every roll
+goes through :data:`STAGES` in order, each a function ``(roll, excerpt, context) -> roll``
+on a :class:`~.roll.Roll` and the audio around it (:class:`~.excerpt.Excerpt`). A new stage
+is one function and one line in that list.
+"""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -12,20 +21,122 @@ from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe, read_exc
 from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
 from drumroll.onsets.envelope import next_by_envelope, retime_by_envelope
-from drumroll.onsets.follow import Excerpt, FollowParams, flight_predictor, follow
+from drumroll.onsets.excerpt import Excerpt
+from drumroll.onsets.follow import FollowParams, extend_back, follow
 from drumroll.onsets.odf import OdfParams
-from drumroll.onsets.sequence import retime
+from drumroll.onsets.prediction import flight_predictor
+from drumroll.onsets.roll import Roll
+from drumroll.onsets.sequence import retime_by_law
+from drumroll.onsets.start import first_in_ring, time_at_start
 from drumroll.onsets.table import OnsetTable
-from drumroll.onsets.tracking import TrackParams, explain, track
+from drumroll.onsets.tracking import Track, TrackParams, explain, track
 
 _ODF_KEYS = {"hop_s", "highpass_hz", "post_s", "pre_s"}
 _TRACK_KEYS = set(TrackParams.__dataclass_fields__)
 
 
+@dataclass(frozen=True)
+class Context:
+    """What the stages share: the settings and where the recording ends."""
+
+    track: TrackParams
+    follow: FollowParams
+    end_s: float
+
+
+Stage = Callable[[Roll, Excerpt, Context], Roll]
+
+
+def from_first_timeable(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """The roll from its first onset that stands out of what it lands in: a bouncer's first
+    impact is the one that lands in silence, so an onset before it that is quieter than its
+    surroundings is a tap or noise the timing happened to fit."""
+    timeable = np.flatnonzero(roll.snr_db >= ctx.follow.min_snr_db)
+    if timeable.size == 0:
+        return Roll.empty()
+    return roll.subset(slice(int(timeable[0]), None)).renumbered()
+
+
+def back_to_the_first(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """An impact before the first onset where the flights continued back put it
+    (:func:`~.follow.extend_back`)."""
+    return extend_back(roll, ex, ctx.follow)
+
+
+def up_to_the_last_timeable(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """Trailing onsets quieter than what they land in were carried by their timing alone;
+    their start cannot be told to the sample, so the roll is reported up to the last one that
+    can (the targeted search then looks for each of them again)."""
+    timeable = np.flatnonzero(roll.snr_db >= ctx.follow.min_snr_db)
+    keep = max(int(timeable[-1]) + 1 if timeable.size else 0,
+               min(ctx.track.min_onsets, len(roll)))
+    return roll.subset(slice(0, keep))
+
+
+def sound_starts(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """Every onset later than the bounces before it put it moved to an earlier start of its
+    sound (:func:`~.start.time_at_start`)."""
+    return time_at_start(roll, ex)
+
+
+def in_ring(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """The first impact timed as if it had landed in the ring the next ones land in
+    (:func:`~.start.first_in_ring`)."""
+    return first_in_ring(roll, ex)
+
+
+def onwards(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """The roll followed past its last onset, window by window (:func:`~.follow.follow`)."""
+    return follow(roll, ex, ctx.follow, min(_predicted_end(roll), ctx.end_s))
+
+
+def law(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """Every onset timed again with the whole roll's law as its prior
+    (:func:`~.sequence.retime_by_law`)."""
+    return retime_by_law(roll, ex)
+
+
+def envelope(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """Every faint onset timed against the sound of the roll's loudest impact
+    (:func:`~.envelope.retime_by_envelope`)."""
+    return retime_by_envelope(roll, ex)
+
+
+def completed(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """A roll of three onsets (two flights: one ratio, nothing to test it with) completed
+    by bounces found by their whole sound where the flight law puts them
+    (:func:`~.envelope.next_by_envelope`), up to the fewest onsets that make a roll."""
+    while 3 <= len(roll) < ctx.track.min_onsets:
+        predict = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s,
+                                   ctx.follow.history, ctx.follow.ratio_jitter)
+        if predict is None:
+            break
+        dt, s_log = predict(1)
+        found = next_by_envelope(roll, ex, dt, s_log * dt)
+        if found is None:
+            break
+        roll = found
+    return roll
+
+
+#: What is done to every roll the tracker finds, in order.
+STAGES: tuple[Stage, ...] = (
+    from_first_timeable,
+    back_to_the_first,
+    up_to_the_last_timeable,
+    sound_starts,
+    onwards,
+    law,
+    envelope,
+    in_ring,
+    completed,
+)
+
+
 def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *,
            threshold: float = 5.0, all_candidates: bool = False,
            block_frames: int = DEFAULT_BLOCK_FRAMES, **options: float) -> OnsetTable:
-    """Find the impacts of a drumroll (or any free bouncer) in a recording.
+    """Find the impacts of every drumroll (or other free bouncer) in a recording.
 
     Parameters
     ----------
@@ -38,7 +149,7 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
         Significance, in robust standard deviations of the detection function, for a sound
         to become a candidate impact.
     all_candidates
-        Also return the candidates the tracker rejected, each with its reason.
+        Also return the candidates that are no onset of a roll, each with its reason.
     block_frames
         Samples read per block from a file.
     **options
@@ -50,7 +161,8 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     Returns
     -------
     OnsetTable
-        The bounces in time order with amplitude, local SNR, timing uncertainty and interval.
+        Every roll's bounces in time order, with bounce and roll numbers, amplitude, local
+        SNR, timing uncertainty and interval.
 
     Raises
     ------
@@ -90,7 +202,11 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     for block in blocks:
         stream.feed(block)
     cands = stream.finish()
-    return _select(cands, tparams, odf, name, rate, all_candidates, excerpt, stream.total)
+    ctx = Context(tparams, FollowParams(ratio_jitter=tparams.ratio_jitter,
+                                        min_interval_s=tparams.min_interval_s),
+                  stream.total / rate)
+    rolls = _rolls(cands, ctx, odf, name, rate, excerpt)
+    return _table(rolls, cands, name, rate, all_candidates)
 
 
 def _mono(x: np.ndarray, name: str) -> np.ndarray:
@@ -106,127 +222,106 @@ def _mono(x: np.ndarray, name: str) -> np.ndarray:
     return x
 
 
-def _select(c: Candidates, p: TrackParams, odf: OdfParams, name: str, rate: int,
-            all_candidates: bool, excerpt: Callable[[int, int], np.ndarray],
-            total: int) -> OnsetTable:
+def _rolls(c: Candidates, ctx: Context, odf: OdfParams, name: str, rate: int,
+           excerpt: Callable[[int, int], np.ndarray]) -> list[Roll]:
+    """Every roll the tracker finds, through :data:`STAGES`, in time order; those left with
+    fewer than ``min_onsets`` onsets are dropped. Raises AudioError, saying why, if none is
+    left."""
     if len(c) == 0:
         raise AudioError(f"no drumroll found in {name}: no impact-like sound in it")
-    tr = track(c, p)
-    if tr.index.size <= 1 or tr.score <= 0:
+    tracks = track(c, ctx.track)
+    if not tracks:
         raise AudioError(f"no drumroll found in {name}: no sequence of bounces "
                          "(a single hit, noise or silence?)")
-    kept = c.subset(tr.index)
-    # A bouncer starts with its loudest impact: onsets before the first that stands out of
-    # the sound it lands in are a tap or noise before the roll.
-    timeable = np.flatnonzero(kept.snr_db >= FollowParams().min_snr_db)
-    if timeable.size == 0:
-        # A pattern in the ring-down or the noise, not a bouncer.
+    rolls, longest = [], 0
+    for tr in sorted(tracks, key=lambda tr: c.time_s[tr.index[0]]):
+        roll = _initial(c, tr)
+        ex = _excerpt_around(roll, ctx, odf, rate, excerpt)
+        for stage in STAGES:
+            if len(roll) == 0:
+                break
+            roll = stage(roll, ex, ctx)
+        longest = max(longest, len(roll))
+        if len(roll) >= ctx.track.min_onsets:
+            rolls.append(roll)
+    if rolls:
+        return _without_overlaps(rolls)
+    if longest == 0:  # every sequence was quieter than its surroundings
         raise AudioError(f"no drumroll found in {name}: the only sequence of bounces in it "
                          "is quieter than the sound around it")
-    kept = kept.subset(np.arange(int(timeable[0]), len(kept)))
-    # Three tracked onsets already predict a fourth: the targeted search may supply it.
-    cols, ex = _extend(kept, p, odf, rate, excerpt, total)
-    if ex is not None:  # each onset timed again with the whole roll's law as its prior
-        cols = retime(cols[0], cols[3], ex.x, ex.start, rate, ex.ba, ex.settle) or cols
-        # ... and against the sound of the roll's loudest impact, which shows where a faint
-        # one's sound starts when its first milliseconds are lost in what it lands in.
-        cols = retime_by_envelope(cols, ex.x, ex.start, rate, ex.ba, ex.settle)
-    # A flight that grows ends the roll: the onsets after it cannot be numbered.
-    tracked = cols[0].size
-    cols = until_a_flight_grows(*cols)
-    if ex is not None and 3 <= cols[0].size < p.min_onsets:
-        cols = _complete(cols, ex, p, rate)
-    if cols[0].size < p.min_onsets:
-        grew = " before a flight longer than the one before it" \
-            if cols[0].size < tracked else ""
-        raise AudioError(f"no drumroll found in {name}: only {cols[0].size} impacts in a "
-                         f"row{grew}, a drumroll needs at least {p.min_onsets}")
-    times = cols[0]
-    near = np.searchsorted(times, c.time_s).clip(1, times.size - 1)
-    dist = np.minimum(np.abs(c.time_s - times[near - 1]), np.abs(c.time_s - times[near]))
-    left_out = np.flatnonzero(dist > _SAME_ONSET_S) if all_candidates else \
-        np.zeros(0, dtype=np.int64)
-    reasons = explain(c.time_s, times, left_out.tolist())
-    return OnsetTable(*cols, rejected_time_s=c.time_s[left_out],
-                      rejected_snr_db=c.snr_db[left_out],
-                      rejected_reason=[reasons[int(i)] for i in left_out], source=name,
-                      sample_rate=rate)
+    raise AudioError(f"no drumroll found in {name}: only {longest} impacts in a row, a "
+                     f"drumroll needs at least {ctx.track.min_onsets}")
 
 
-def until_a_flight_grows(times: np.ndarray, *columns: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The roll up to (not including) the onset that ends the first flight longer than the
-    flight before it.
+def _initial(c: Candidates, tr: Track) -> Roll:
+    kept = c.subset(tr.index)
+    return Roll(kept.time_s, tr.bounce, kept.amplitude, kept.snr_db, kept.sigma_s,
+                kept.level)
 
-    Every flight of a bouncer is shorter than the one before it (α < 1, in every model), so a
-    flight that grows by more than its timing uncertainty means that a bounce between was
-    missed (masked, or too faint) or that an onset is wrong. The onsets after it could then
-    not be numbered, and a fit would take bounce k + 1 for bounce k: the roll is reported up
-    to the gap (and is no roll at all if too few onsets are left: flights that grow from the
-    start are unrelated sounds). ``columns[-1]`` must be the per-onset timing uncertainty
-    ``sigma_s``.
-    """
-    sigma = columns[-1]
-    flights = np.diff(times)
+
+def _without_overlaps(rolls: list[Roll]) -> list[Roll]:
+    """Rolls in time order; where following one ran into the next, the longer keeps the
+    shared stretch (a bouncer makes one roll at a time)."""
+    out: list[Roll] = []
+    for roll in rolls:
+        if out and roll.time_s[0] <= out[-1].time_s[-1]:
+            if len(roll) > len(out[-1]):
+                out[-1] = roll
+            continue
+        out.append(roll)
+    return out
+
+
+def _predicted_end(roll: Roll) -> float:
+    """Where the roll's flights, continued at their last ratio, would have died out."""
+    flights, _ = roll.flights()
+    t = roll.time_s
     if flights.size < 2:
-        return (times, *columns)
-    # Each flight difference involves three onset times.
-    spread = np.sqrt(sigma[2:] ** 2 + 4.0 * sigma[1:-1] ** 2 + sigma[:-2] ** 2)
-    grows = np.flatnonzero(flights[1:] - flights[:-1] > 3.0 * spread)
-    if grows.size == 0:
-        return (times, *columns)
-    return tuple(col[: int(grows[0]) + 2] for col in (times, *columns))
+        return float(t[-1] + (flights[-1] if flights.size else 0.5))
+    ratio = float(np.clip(flights[-1] / flights[-2], 0.25, 0.98))
+    return float(t[-1] + flights[-1] * ratio / (1.0 - ratio) + 0.05)
 
 
-def _complete(cols: tuple[np.ndarray, ...], ex: Excerpt, p: TrackParams, rate: int
-              ) -> tuple[np.ndarray, ...]:
-    """A roll of three onsets (two flights: one ratio, nothing to test it with) completed
-    by bounces found by their whole sound where the flight law puts them
-    (:func:`~.envelope.next_by_envelope`), up to the fewest onsets that make a roll."""
-    while cols[0].size < p.min_onsets:
-        predict = flight_predictor(cols[0], cols[3], FollowParams(ratio_jitter=p.ratio_jitter))
-        if predict is None:
-            break
-        dt, s_log = predict(1)
-        found = next_by_envelope(cols, ex.x, ex.start, rate, ex.ba, ex.settle, dt, s_log * dt)
-        if found is None:
-            break
-        cols = found
-    return cols
+def _excerpt_around(roll: Roll, ctx: Context, odf: OdfParams, rate: int,
+                    excerpt: Callable[[int, int], np.ndarray]) -> Excerpt:
+    """The audio from before the roll (far enough back for one flight longer than its first,
+    and for the detection function's statistics) to after its predicted end."""
+    t = roll.time_s
+    first = t[1] - t[0] if len(roll) > 1 else 0.5
+    before = max(_CONTEXT_S, min(2.0 * first, ctx.track.max_interval_s) + 0.1)
+    start = max(int((t[0] - before) * rate), 0)
+    end_s = min(_predicted_end(roll), ctx.end_s)
+    stop = min(int((end_s + _CONTEXT_S) * rate), int(ctx.end_s * rate))
+    return Excerpt(excerpt(start, stop), start, rate, odf)
+
+
+def _table(rolls: list[Roll], c: Candidates, name: str, rate: int, all_candidates: bool
+           ) -> OnsetTable:
+    """The onset table of the rolls; with ``all_candidates``, every candidate that is no
+    onset of a roll, with the reason."""
+    times = np.concatenate([r.time_s for r in rolls])
+    roll_of = np.concatenate([np.full(len(r), i) for i, r in enumerate(rolls)])
+    columns = {f: np.concatenate([getattr(r, f) for r in rolls])
+               for f in ("bounce", "amplitude", "snr_db", "sigma_s")}
+    rejected = np.zeros(0, dtype=np.int64)
+    reasons: list[str] = []
+    if all_candidates:
+        near = np.searchsorted(times, c.time_s).clip(1, times.size - 1)
+        dist = np.minimum(np.abs(c.time_s - times[near - 1]), np.abs(c.time_s - times[near]))
+        rejected = np.flatnonzero(dist > _SAME_ONSET_S)
+        for i in rejected.tolist():
+            # Explained against the roll nearest to it.
+            centre = np.array([0.5 * (r.time_s[0] + r.time_s[-1]) for r in rolls])
+            roll = rolls[int(np.argmin(np.abs(centre - c.time_s[i])))]
+            reasons.append(explain(c.time_s, roll.time_s, [i])[i])
+    return OnsetTable(times, columns["amplitude"], columns["snr_db"], columns["sigma_s"],
+                      rejected_time_s=c.time_s[rejected], rejected_snr_db=c.snr_db[rejected],
+                      rejected_reason=reasons, source=name, sample_rate=rate,
+                      bounce=columns["bounce"], roll=roll_of)
 
 
 #: Candidates this close to a reported onset are that onset.
 _SAME_ONSET_S = 0.001
-
-
-def _extend(kept: Candidates, p: TrackParams, odf: OdfParams, rate: int,
-            excerpt: Callable[[int, int], np.ndarray], total: int
-            ) -> tuple[tuple[np.ndarray, ...], Excerpt | None]:
-    """The tracked roll, followed past its last onset by the targeted search of
-    :mod:`.follow`. Returns time, amplitude, SNR and sigma columns, and the audio around
-    the roll (None if the roll was too short to follow)."""
-    # Trailing onsets quieter than what they land in were carried by their timing alone;
-    # their start cannot be told to the sample, so the roll is reported up to the last one
-    # that can (but never below the fewest onsets that make a roll).
-    fp = FollowParams(ratio_jitter=p.ratio_jitter)
-    timeable = np.flatnonzero(kept.snr_db >= fp.min_snr_db)
-    keep = max(int(timeable[-1]) + 1 if timeable.size else 0, min(p.min_onsets, len(kept)))
-    kept = kept.subset(np.arange(keep))
-    cols = (kept.time_s, kept.amplitude, kept.snr_db, kept.sigma_s)
-    if len(kept) < 3:
-        return cols, None
-    t = kept.time_s
-    flights = np.diff(t)
-    ratio = float(np.clip(flights[-1] / flights[-2], p.min_ratio, 0.98))
-    # The roll cannot last longer than the geometric series of its remaining flights.
-    end_s = min(t[-1] + flights[-1] * ratio / (1.0 - ratio) + 0.05, total / rate)
-    start = max(int((t[0] - _CONTEXT_S) * rate), 0)
-    stop = min(int((end_s + _CONTEXT_S) * rate), total)
-    ex = Excerpt(excerpt(start, stop), start, rate, odf)
-    found = follow(list(t), list(kept.sigma_s), ex, fp, p.min_interval_s, end_s)
-    return tuple(np.concatenate((b, np.asarray(f, dtype=float)))
-                 for b, f in zip(cols, (found.time_s, found.amplitude, found.snr_db,
-                                        found.sigma_s), strict=True)), ex
-
 
 #: Audio read either side of the roll for the detection function's statistics.
 _CONTEXT_S = 1.0

@@ -8,7 +8,7 @@ there is sharp. Nothing in the first milliseconds of the waveform says so.
 
 The roll itself does. Every impact of one bouncer on one surface makes much the same sound,
 louder or fainter, and the loudest impact shows the whole of it far above the noise. Its power
-envelope above :data:`BAND_HZ` (the attack's band: the modes that ring for hundreds of
+envelope above :data:`~.excerpt.BAND_HZ` (the attack's band: the modes that ring for hundreds of
 milliseconds lie below it) is the template ``E``. Around every other onset the power envelope
 is fitted as
 
@@ -45,18 +45,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 from scipy.special import logsumexp
 
-from drumroll.onsets.candidates import refine_window
-
-#: Lower edge of the band whose power envelope is fitted (Hz): an impact's attack (stick
-#: click, snare wires, the contact's broadband burst) is above it, a drum's and a table's
-#: long-ringing low modes are below it.
-BAND_HZ = 1000.0
-
-#: Width of one envelope bin (seconds): half the detection function's finest hop.
-BIN_S = 0.25e-3
+from drumroll.onsets.excerpt import Excerpt
+from drumroll.onsets.roll import Roll
 
 #: Log Bayes factor ("elsewhere" against "here") at which the envelope overrides the change
 #: point.
@@ -75,17 +67,6 @@ _BEFORE_S, _AFTER_S = 0.02, 0.005
 
 #: Trial onsets reach this far past the template's peak before the onset, and after it.
 _MARGIN_S = 0.001
-
-
-def power_envelope(x: np.ndarray, sample_rate: int) -> tuple[np.ndarray, int]:
-    """Mean power per bin of ``x`` high-passed at :data:`BAND_HZ` (a causal filter, so no
-    sound leaks ahead of its start), and the bin width in samples."""
-    sos = signal.butter(4, min(BAND_HZ, 0.4 * sample_rate), btype="highpass",
-                        fs=sample_rate, output="sos")
-    y = signal.sosfilt(sos, x)
-    width = max(1, round(BIN_S * sample_rate))
-    n = y.size // width
-    return np.mean(np.square(y[: n * width]).reshape(n, width), axis=1), width
 
 
 def template(power: np.ndarray, onset_bin: int, length: int, before: int
@@ -200,10 +181,10 @@ class _Roll:
     margin: int
 
     @classmethod
-    def of(cls, times: np.ndarray, amplitude: np.ndarray, x: np.ndarray, start: int,
-           sr: int) -> _Roll | None:
-        power, width = power_envelope(x, sr)
-        pos = times * sr - start  # sample positions in x
+    def of(cls, times: np.ndarray, amplitude: np.ndarray, ex: Excerpt) -> _Roll | None:
+        power, width = ex.band_power()
+        sr = ex.sr
+        pos = times * sr - ex.start  # sample positions in x
         loudest = int(np.argmax(amplitude))
         first_bin = int(pos[loudest] // width)
         before, after_peak, margin = (round(v / (width / sr)) for v in (_BEFORE_S, _AFTER_S,
@@ -217,32 +198,29 @@ class _Roll:
                    int(np.argmax(shape)), before, after_peak, margin)
 
 
-def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
-                       sample_rate: int, ba: tuple[np.ndarray, np.ndarray], settle: int
-                       ) -> tuple[np.ndarray, ...]:
+def retime_by_envelope(onsets: Roll, ex: Excerpt) -> Roll:
     """Move the onsets that the roll's envelope strongly places elsewhere (module docstring).
 
     Parameters
     ----------
-    columns
-        Time (s, absolute), amplitude, SNR (dB) and sigma (s) of the roll's onsets.
-    x, start
-        Raw samples around the roll; ``x[0]`` is absolute sample ``start``.
-    sample_rate, ba, settle
-        As :func:`~.candidates.refine_window` needs them.
+    onsets
+        The roll.
+    ex
+        The audio around it.
 
     Returns
     -------
-    tuple of numpy.ndarray
-        The four columns, with the moved onsets refined again.
+    Roll
+        The roll with the moved onsets refined again.
     """
-    times, amplitude, snr_db, sigma = (np.array(c, dtype=float) for c in columns)
+    times, amplitude, snr_db, sigma = (np.array(c, dtype=float) for c in (
+        onsets.time_s, onsets.amplitude, onsets.snr_db, onsets.sigma_s))
     if times.size < 2:
-        return times, amplitude, snr_db, sigma
-    sr = sample_rate
-    roll = _Roll.of(times, amplitude, x, start, sr)
+        return onsets
+    sr = ex.sr
+    roll = _Roll.of(times, amplitude, ex)
     if roll is None:
-        return times, amplitude, snr_db, sigma
+        return onsets
     power, width, pos, offset = roll.power, roll.width, roll.pos, roll.offset
     peak_bins, margin = roll.peak_bins, roll.margin
     for k in range(1, times.size):
@@ -271,25 +249,23 @@ def retime_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: in
         lik = np.exp(ll - ll.max())
         if math.log(lik[~near].mean() / max(lik[near].mean(), 1e-300)) < STRONG:
             continue
-        times[k], amplitude[k], snr_db[k], sigma[k] = _place(
-            roll, trials, lik, x, start, sr, ba, settle, flight_bins * width)
-        pos[k] = times[k] * sr - start
-    return times, amplitude, snr_db, sigma
+        times[k], amplitude[k], snr_db[k], sigma[k] = _place(roll, trials, lik, ex,
+                                                              flight_bins * width)
+        pos[k] = times[k] * sr - ex.start
+    return onsets.with_times(times, amplitude, snr_db, sigma)
 
 
-def next_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
-                     sample_rate: int, ba: tuple[np.ndarray, np.ndarray], settle: int,
-                     dt: float, sd: float) -> tuple[np.ndarray, ...] | None:
-    """The next bounce after the roll ``columns``, looked for by its whole sound where the
+def next_by_envelope(onsets: Roll, ex: Excerpt, dt: float, sd: float) -> Roll | None:
+    """The next bounce after the roll ``onsets``, looked for by its whole sound where the
     flight law puts it (``dt`` after the last onset, Gaussian with sd ``sd``, seconds).
 
     The Bayes factor of "a bounce whose sound is the template, at an onset drawn from the
     prediction, with an amplitude up to the last bounce's" against "no bounce" must be
-    at least e^STRONG. Returns the columns with the bounce appended, or None.
+    at least e^STRONG. Returns the roll with the bounce appended, or None.
     """
-    times, amplitude, snr_db, sigma = (np.array(c, dtype=float) for c in columns)
-    sr = sample_rate
-    roll = _Roll.of(times, amplitude, x, start, sr)
+    times, amplitude = onsets.time_s, onsets.amplitude
+    sr = ex.sr
+    roll = _Roll.of(times, amplitude, ex)
     if roll is None:
         return None
     power, width, pos, offset = roll.power, roll.width, roll.pos, roll.offset
@@ -316,25 +292,21 @@ def next_by_envelope(columns: tuple[np.ndarray, ...], x: np.ndarray, start: int,
     post = log_bf + prior - logsumexp(prior)
     if logsumexp(post) < STRONG:
         return None
-    found = _place(roll, trials, np.exp(post - post.max()), x, start, sr, ba, settle,
-                   mean * width)
-    return tuple(np.append(col, v) for col, v in zip((times, amplitude, snr_db, sigma), found,
-                                                      strict=True))
+    found = _place(roll, trials, np.exp(post - post.max()), ex, mean * width)
+    return onsets.with_onset(found[0], int(onsets.bounce[-1]) + 1, *found[1:])
 
 
-def _place(roll: _Roll, trials: np.ndarray, weight: np.ndarray, x: np.ndarray, start: int,
-           sr: int, ba: tuple[np.ndarray, np.ndarray], settle: int, flight: float
+def _place(roll: _Roll, trials: np.ndarray, weight: np.ndarray, ex: Excerpt, flight: float
            ) -> tuple[float, float, float, float]:
     """Time (s), amplitude, SNR and sigma of an onset placed by the change point within a
     bin of the best of the envelope's ``trials`` (``weight``: their likelihood or
     posterior); sigma includes the spread of that weight. ``flight`` (samples) before the
     onset bounds the whitening reference, as in :func:`~.sequence.retime`."""
-    width = roll.width
+    width, sr = roll.width, ex.sr
     best = int(trials[np.argmax(weight)])
     fit = max(64, min(round(0.006 * sr), round(0.4 * flight)))
-    r = refine_window(x, start, round(start + best * width + roll.offset), sr, ba, settle,
-                      pre=width + fit, post=round(0.002 * sr), search=width,
-                      search_after=width)
+    r = ex.refine(round(ex.start + best * width + roll.offset), pre=width + fit,
+                  post=round(0.002 * sr), search=width, search_after=width)
     spread = float(np.sqrt(np.sum(weight * (trials - best) ** 2) / weight.sum())) * width
     sigma = math.hypot(r.sigma_s, max(spread, width / math.sqrt(12.0)) / sr)
     return r.sample / sr, r.amplitude, r.snr_db, sigma

@@ -1,17 +1,24 @@
-"""Following a tracked roll into the noise: a targeted search where the next bounce must be.
+"""Following a roll into the noise, and back to its first impact: a targeted search where the
+next (or previous) bounce must be.
 
 The first pass keeps only candidates that are significant against the whole recording
-(``z >= 5``): a threshold set for the number of frames in a file. Once the roll is tracked,
-physics says where the next impact must fall: the flights shrink roughly geometrically, so a
-straight line through the logarithms of the recent flight times predicts the next one, with
-an uncertainty from the scatter about that line and from the onsets' own timing errors. Only
-that window is searched, so the detection threshold is set for the window's size: a false
-alarm rate per window, not per file, taken from the tail of the detection function's own
-distribution around the roll (an exponential peaks-over-threshold fit, so no constant is tuned
-to one kind of recording). When intervals are short, the detection function is recomputed with
-windows shorter than the interval, so the previous bounce does not mask the next. The walk
-stops where the evidence in the predicted window is no longer significant. A masked bounce
-ends the walk: the onsets after it could not be numbered.
+(``z >= 5``): a threshold set for the number of frames in a file. Once a roll is tracked,
+physics says where its next impact must fall: the flights shrink roughly geometrically, so a
+straight line through the logarithms of the recent flight times (against their bounce
+numbers) predicts the next one, with an uncertainty from the scatter about that line and from
+the onsets' own timing errors. Only that window is searched, so the detection threshold is set
+for the window's size: a false alarm rate per window, not per file, taken from the tail of
+the detection function's own distribution around the roll (an exponential peaks-over-threshold
+fit, so no constant is tuned to one kind of recording). When intervals are short, the
+detection function is recomputed with windows shorter than the interval, so the previous
+bounce does not mask the next.
+
+A window with nothing significant in it is one unheard bounce, not the end of the roll: the
+search moves on to where the bounce after it would be, numbering on, and gives up only after
+``max_skip + 1`` windows in a row are empty (the false alarm rate of each further window is
+divided by the windows tried, so giving a faded roll more chances does not add onsets after
+its end). The same test run once before the first onset, where the flights continued back
+would put an earlier impact, finds a first impact the first pass missed.
 """
 
 from __future__ import annotations
@@ -21,16 +28,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
-from drumroll.onsets.candidates import (
-    FLOOR_PER_SAMPLE,
-    combined_z,
-    plateau,
-    refine_window,
-    settle_samples,
+from drumroll.onsets.candidates import plateau
+from drumroll.onsets.excerpt import Excerpt
+from drumroll.onsets.prediction import flight_predictor
+from drumroll.onsets.refine import Refined
+from drumroll.onsets.roll import Roll
+from drumroll.onsets.start import (
+    StartPrior,
+    common_margin_db,
+    law_prior,
+    start_of_sound,
 )
-from drumroll.onsets.odf import OdfParams, band_filters, frame_energy, wide_filter
 
 
 @dataclass(frozen=True)
@@ -53,6 +62,10 @@ class FollowParams:
         Least own-sound-to-background ratio (:attr:`~.refine.Refined.snr_db`) of an onset
         that is reported: an impact quieter than the ring and noise it lands in is heard
         (the window is significant) but its start cannot be told to the sample.
+    max_skip
+        Unheard bounces in a row after which the search stops.
+    min_interval_s
+        Shortest flight looked for.
     """
 
     false_alarm: float = 0.01
@@ -61,66 +74,132 @@ class FollowParams:
     ratio_jitter: float = 0.05
     tail_quantile: float = 0.95
     min_snr_db: float = 0.0
+    max_skip: int = 2
+    min_interval_s: float = 0.002
 
 
-@dataclass
-class Found:
-    """Onsets added by the targeted search (parallel lists)."""
-
-    time_s: list[float]
-    amplitude: list[float]
-    snr_db: list[float]
-    sigma_s: list[float]
-
-
-class Excerpt:
-    """Raw samples around the roll, their band energies, and detection functions on demand.
+def follow(roll: Roll, ex: Excerpt, p: FollowParams, stop_s: float) -> Roll:
+    """Extend ``roll`` (at least three onsets) forward, window by window (module docstring).
 
     Parameters
     ----------
-    x
-        Mono samples.
-    start
-        Absolute sample index of ``x[0]``.
-    sample_rate
-        Samples per second.
-    odf
-        Detection-function settings (the bands and the hop of the first pass).
+    roll
+        The roll so far.
+    ex
+        The audio around the roll.
+    p
+        Settings.
+    stop_s
+        Never look past this time.
     """
+    search = _Search(ex, p, roll)
+    n = 1
+    while len(roll) >= 3:
+        pred = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s, p.history,
+                                p.ratio_jitter)
+        if pred is None:
+            break
+        dt, s_log = pred(n)
+        single = dt - (pred(n - 1)[0] if n > 1 else 0.0)
+        if single < p.min_interval_s or roll.time_s[-1] + dt > stop_s:
+            break
+        got = search(roll.time_s[-1], dt, s_log, p.false_alarm / n, after=True,
+                     prior=law_prior(roll, int(roll.bounce[-1]) + n))
+        if got is None:
+            n += 1
+            if n > p.max_skip + 1:
+                break
+            continue
+        time_s, r = got
+        roll = roll.with_onset(time_s, int(roll.bounce[-1]) + n, r.amplitude, r.snr_db,
+                               r.sigma_s, r.level)
+        n = 1
+    return roll
 
-    def __init__(self, x: np.ndarray, start: int, sample_rate: int, odf: OdfParams) -> None:
-        self.x, self.start, self.sr, self.odf = x, start, sample_rate, odf
-        self.hop = odf.hop(sample_rate)
-        # Frames on the absolute grid of the first pass.
-        self.skip = (-start) % self.hop
-        self.f0 = (start + self.skip) // self.hop
-        self.energy = []
-        for filt in band_filters(odf, sample_rate):
-            self.energy.append(frame_energy(filt(x)[self.skip:], self.hop))
-        sos = wide_filter(odf, sample_rate).sos
-        self.settle = settle_samples(sos, sample_rate)
-        self.ba = signal.sos2tf(sos)
-        self.segment = odf.frames(0.25, sample_rate)
-        self._z: dict[tuple[int, int], np.ndarray] = {}
 
-    @property
-    def n_frames(self) -> int:
-        """Frames in the excerpt."""
-        return int(self.energy[0].size)
+def extend_back(roll: Roll, ex: Excerpt, p: FollowParams) -> Roll:
+    """Look once for an impact before the roll's first onset, where its flights continued
+    back would put it (the first flight divided by the roll's ratio); prepend it and number
+    the roll from it if the window holds a significant sound."""
+    if len(roll) < 3 or not np.array_equal(roll.bounce[:3], roll.bounce[0] + np.arange(3)):
+        return roll
+    f1, f2 = np.diff(roll.time_s[:3])
+    ratio = f2 / f1
+    if not 0.0 < ratio < 1.0:
+        return roll
+    dt = f1 / ratio
+    s_log = math.hypot(p.ratio_jitter, 2.0 * math.hypot(roll.sigma_s[0], roll.sigma_s[1]) / f1)
+    if roll.time_s[0] - dt * (1 + p.width_sigmas * s_log) < ex.start / ex.sr:
+        return roll
+    got = _Search(ex, p, roll)(roll.time_s[0], dt, s_log, p.false_alarm, after=False)
+    if got is None:
+        return roll
+    time_s, r = got
+    return roll.with_onset(time_s, int(roll.bounce[0]) - 1, r.amplitude, r.snr_db,
+                           r.sigma_s, r.level).renumbered()
 
-    def frame(self, t: float) -> int:
-        """Excerpt frame index holding time ``t`` (seconds, absolute)."""
-        return int(np.floor(t * self.sr / self.hop)) - self.f0
 
-    def z(self, pre: int, post: int) -> np.ndarray:
-        """The standardised detection function with ``pre``/``post`` frame windows."""
+class _Search:
+    """Tests of predicted windows on one excerpt (the noise reference and the tail fits are
+    shared between the windows)."""
+
+    def __init__(self, ex: Excerpt, p: FollowParams, roll: Roll) -> None:
+        self.ex, self.p = ex, p
+        self.ref = _reference_frames(roll.time_s, ex)
+        self.margin = common_margin_db(ex, roll)
+        self.tails: dict[tuple[int, int], tuple[float, float, float]] = {}
+        self.hop_s = ex.hop / ex.sr
+
+    def __call__(self, t_from: float, dt: float, s_log: float, false_alarm: float, *,
+                 after: bool, prior: StartPrior | None = None
+                 ) -> tuple[float, Refined] | None:
+        """Test the window around ``t_from + dt`` (``after``) or ``t_from - dt``; the refined
+        onset if significant (moved to the start of its sound where it is later than
+        ``prior``, :func:`~.start.start_of_sound`), else None."""
+        ex, p, hop_s = self.ex, self.p, self.hop_s
+        centre = t_from + dt if after else t_from - dt
+        half = max(p.width_sigmas * s_log * dt, 2 * hop_s)
+        lo_t, hi_t = centre - half, centre + half
+        # Windows shorter than the flight, so the neighbouring bounce is not in the reference.
+        pre = max(1, min(ex.odf.frames(ex.odf.pre_s, ex.sr), int(0.6 * dt / hop_s)))
+        post = max(1, min(ex.odf.frames(ex.odf.post_s, ex.sr), int(0.3 * dt / hop_s)))
+        if after:
+            lo_t = max(lo_t, t_from + 2 * hop_s + post * hop_s)
+        else:
+            hi_t = min(hi_t, t_from - 2 * hop_s - pre * hop_s)
+        if hi_t <= lo_t:
+            return None
+        z = ex.z(pre, post)
+        a, b = max(ex.frame(lo_t), pre), min(ex.frame(hi_t) + 1, ex.n_frames - post)
+        if b <= a:
+            return None
         key = (pre, post)
-        if key not in self._z:
-            n = self.n_frames
-            inner = slice(min(pre, n), max(n - post, 0))
-            self._z[key] = combined_z(self.energy, pre, post, self.segment, inner,
-                                      FLOOR_PER_SAMPLE * self.hop)
-        return self._z[key]
+        if key not in self.tails:
+            self.tails[key] = _tail(z[self.ref], p.tail_quantile)
+        u, q_u, beta = self.tails[key]
+        width = b - a
+        # P(max of `width` tail frames > x) = false_alarm, frames taken as independent.
+        per_frame = -math.expm1(math.log1p(-false_alarm) / width)
+        x_star = u + beta * math.log(q_u / per_frame)
+        f = a + int(np.argmax(z[a:b]))
+        if z[f] < x_star:
+            return None
+        # Locate as the first pass does: the short-window detection function's peak on the
+        # plateau, then the change point from 2 ms before the plateau to 2 ms after that peak.
+        first, last = plateau(z, f, post)
+        post_loc = min(ex.odf.frames(0.001, ex.sr), post)
+        g = max(first - post_loc, 0)
+        at = g + int(np.argmax(ex.z(pre, post_loc)[g: last + 1]))
+        margin = round(0.002 * ex.sr)
+        back = margin + (at - first) * ex.hop
+        # The refinement's reference starts after the previous bounce's click where it can.
+        fit = max(64, min(round(0.008 * ex.sr) - margin, round(0.5 * dt * ex.sr)))
+        r = ex.refine((ex.f0 + at) * ex.hop, pre=back + fit, post=margin, search=back,
+                      search_after=margin)
+        if r.snr_db < p.min_snr_db:  # there is a sound, but not one that can be timed
+            return None
+        r = start_of_sound(ex, r, dt, self.margin, prior)
+        return r.sample / ex.sr, r
 
 
 def _tail(z: np.ndarray, q: float) -> tuple[float, float, float]:
@@ -134,49 +213,6 @@ def _tail(z: np.ndarray, q: float) -> tuple[float, float, float]:
     excess = z[z > u] - u
     beta = float(np.median(excess)) / math.log(2.0) if excess.size else 1.0
     return u, 1.0 - q, max(beta, 1e-3)
-
-
-def follow(times: list[float], sigmas: list[float], ex: Excerpt, p: FollowParams,
-           min_interval_s: float, stop_s: float) -> Found:
-    """Extend the roll ``times`` (at least three onsets) forward, window by window.
-
-    Parameters
-    ----------
-    times, sigmas
-        Onsets so far (seconds, absolute) and their timing uncertainties.
-    ex
-        The audio around the roll.
-    p
-        Settings.
-    min_interval_s
-        Shortest flight considered: the walk ends when the prediction falls below it.
-    stop_s
-        Never look past this time.
-    """
-    t = list(times)
-    sig = list(sigmas)
-    out = Found([], [], [], [])
-    hop_s = ex.hop / ex.sr
-    tails: dict[tuple[int, int], tuple[float, float, float]] = {}
-    ref = _reference_frames(np.asarray(times), ex)
-    while len(t) >= 3:
-        pred = flight_predictor(np.asarray(t), np.asarray(sig), p)
-        if pred is None:
-            break
-        dt, s_log = pred(1)
-        if dt < min_interval_s or t[-1] + dt > stop_s:
-            break
-        got = _search(t[-1], dt, s_log, ex, p, tails, hop_s, ref)
-        if got is None:
-            break
-        time_s, r = got
-        t.append(time_s)
-        sig.append(r.sigma_s)
-        out.time_s.append(time_s)
-        out.amplitude.append(r.amplitude)
-        out.snr_db.append(r.snr_db)
-        out.sigma_s.append(r.sigma_s)
-    return out
 
 
 def _reference_frames(t: np.ndarray, ex: Excerpt) -> np.ndarray:
@@ -193,84 +229,3 @@ def _reference_frames(t: np.ndarray, ex: Excerpt) -> np.ndarray:
     if not ref.any():
         ref[:] = True
     return ref
-
-
-def flight_predictor(t: np.ndarray, sig: np.ndarray, p: FollowParams):
-    """A function ``n -> (interval to the n-th next onset, its log-scale sigma)`` from a
-    straight-line fit to the logarithms of the recent flights, or None."""
-    flights = np.diff(t)[-p.history:]
-    if flights.size < 2 or np.any(flights <= 0):
-        return None
-    y = np.log(flights)
-    k = np.arange(flights.size, dtype=float)
-    # Timing errors of both ends enter each log flight.
-    s_end = sig[-flights.size - 1:]
-    var_t = (s_end[1:] ** 2 + s_end[:-1] ** 2) / flights**2
-    var = var_t + p.ratio_jitter**2
-    wts = 1.0 / var
-    kbar = np.sum(wts * k) / wts.sum()
-    sxx = np.sum(wts * (k - kbar) ** 2)
-    slope = np.sum(wts * (k - kbar) * (y - np.sum(wts * y) / wts.sum())) / max(sxx, 1e-12)
-    slope = min(slope, 0.0)  # flights do not grow
-    icpt = np.sum(wts * (y - slope * k)) / wts.sum()
-    resid = y - (icpt + slope * k)
-    dof = max(flights.size - 2, 1)
-    s2 = max(float(np.sum(wts * resid**2) / dof), 1.0)  # variance scale: >1 if misfitting
-    w_sum = float(wts.sum())
-    last_var = float(sig[-1]) ** 2
-
-    def at(n: int) -> tuple[float, float]:
-        ks = flights.size + np.arange(n, dtype=float)
-        flight = np.exp(icpt + slope * ks)
-        # The line's own uncertainty is shared by the n flights; each flight's scatter is not.
-        sd_line = np.sqrt(s2 * (1.0 / w_sum + (ks - kbar) ** 2 / max(sxx, 1e-12)))
-        total = float(flight.sum())
-        var_abs = float(np.sum(flight * sd_line)) ** 2 \
-            + float(np.sum(flight**2)) * s2 * p.ratio_jitter**2 + last_var
-        return total, math.sqrt(var_abs) / total
-
-    return at
-
-
-def _search(t_last: float, dt: float, s_log: float, ex: Excerpt, p: FollowParams,
-            tails: dict, hop_s: float, ref: np.ndarray):
-    """Test the window around ``t_last + dt``; the refined onset if significant, else None.
-    ``ref`` flags the frames whose detection function is the noise reference."""
-    half = max(p.width_sigmas * s_log * dt, 2 * hop_s)
-    lo_t, hi_t = t_last + dt - half, t_last + dt + half
-    # Windows shorter than the flight, so the previous bounce is not in the reference.
-    pre = max(1, min(ex.odf.frames(ex.odf.pre_s, ex.sr), int(0.6 * dt / hop_s)))
-    post = max(1, min(ex.odf.frames(ex.odf.post_s, ex.sr), int(0.3 * dt / hop_s)))
-    lo_t = max(lo_t, t_last + 2 * hop_s + post * hop_s)
-    if hi_t <= lo_t:
-        return None
-    z = ex.z(pre, post)
-    a, b = max(ex.frame(lo_t), pre), min(ex.frame(hi_t) + 1, ex.n_frames - post)
-    if b <= a:
-        return None
-    key = (pre, post)
-    if key not in tails:
-        tails[key] = _tail(z[ref], p.tail_quantile)
-    u, q_u, beta = tails[key]
-    width = b - a
-    # P(max of `width` tail frames > x) = false_alarm, frames taken as independent.
-    per_frame = -math.expm1(math.log1p(-p.false_alarm) / width)
-    x_star = u + beta * math.log(q_u / per_frame)
-    f = a + int(np.argmax(z[a:b]))
-    if z[f] < x_star:
-        return None
-    # Locate as the first pass does: the short-window detection function's peak on the
-    # plateau, then the change point from 2 ms before the plateau to 2 ms after that peak.
-    first, last = plateau(z, f, post)
-    post_loc = min(ex.odf.frames(0.001, ex.sr), post)
-    g = max(first - post_loc, 0)
-    at = g + int(np.argmax(ex.z(pre, post_loc)[g: last + 1]))
-    margin = round(0.002 * ex.sr)
-    back = margin + (at - first) * ex.hop
-    # The refinement's reference starts after the previous bounce's click where it can.
-    fit = max(64, min(round(0.008 * ex.sr) - margin, round(0.5 * dt * ex.sr)))
-    r = refine_window(ex.x, ex.start, (ex.f0 + at) * ex.hop, ex.sr, ex.ba, ex.settle,
-                      pre=back + fit, post=margin, search=back, search_after=margin)
-    if r.snr_db < p.min_snr_db:  # there is a sound, but not one that can be timed
-        return None
-    return r.sample / ex.sr, r

@@ -66,6 +66,10 @@ class Refined:
 #: (a likelihood ratio of e: Akaike's usual "substantial support" band).
 EQUIVALENT = 2.0
 
+#: Log Bayes factor of "strong" evidence on Kass & Raftery's scale (odds of about 20): the
+#: bar for moving an onset away from its change point.
+STRONG = 3.0
+
 
 @dataclass(frozen=True)
 class Prior:

@@ -27,8 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from drumroll.onsets.candidates import refine_window
+from drumroll.onsets.excerpt import Excerpt
 from drumroll.onsets.refine import Prior
+from drumroll.onsets.roll import Roll
 
 #: MAD to Gaussian standard deviation.
 _MAD_TO_SIGMA = 1.4826
@@ -58,38 +59,58 @@ class SequenceFit:
     time_s: np.ndarray
     sd_s: np.ndarray
     dof: int
+    params: np.ndarray
+    quadratic: bool
+    cov: np.ndarray
+    scatter_s: float
+    first_bounce: int
+
+    def predict(self, bounce: int) -> tuple[float, float]:
+        """The law's time of bounce number ``bounce`` (any, also past the fitted onsets) and
+        the scale of an onset there about it (the scatter and the fit's own uncertainty)."""
+        k = np.array([self.first_bounce, bounce])
+        t, jmat = _law(self.params, k, self.quadratic)
+        var_fit = float(jmat[1] @ self.cov @ jmat[1])
+        return float(t[1]), float(np.sqrt(self.scatter_s**2 + max(var_fit, 0.0)))
 
 
-def _law(p: np.ndarray, n: int, quadratic: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Onset times of the law with parameters ``p`` (t0, a, b[, c]) and their Jacobian."""
-    i = np.arange(n - 1, dtype=float)
+def _law(p: np.ndarray, bounce: np.ndarray, quadratic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Onset times of the law with parameters ``p`` (t0, a, b[, c]) at the bounce numbers
+    ``bounce`` (counted from the first onset's), and their Jacobian."""
+    k = bounce - bounce[0]
+    i = np.arange(int(k[-1]), dtype=float)
     c = p[3] if quadratic else 0.0
     f = np.exp(p[1] + p[2] * i + c * i * i)
-    t = p[0] + np.concatenate(([0.0], np.cumsum(f)))
-    cols = [np.ones(n), t - p[0], np.concatenate(([0.0], np.cumsum(i * f)))]
+
+    def at_bounces(v: np.ndarray) -> np.ndarray:
+        return np.concatenate(([0.0], np.cumsum(v)))[k]
+
+    t = p[0] + at_bounces(f)
+    cols = [np.ones(k.size), t - p[0], at_bounces(i * f)]
     if quadratic:
-        cols.append(np.concatenate(([0.0], np.cumsum(i * i * f))))
+        cols.append(at_bounces(i * i * f))
     return t, np.stack(cols, axis=1)
 
 
-def _robust_fit(times: np.ndarray, weight: np.ndarray, p0: list[float], quadratic: bool
-                ) -> tuple[np.ndarray, float]:
+def _robust_fit(times: np.ndarray, bounce: np.ndarray, weight: np.ndarray, p0: list[float],
+                quadratic: bool) -> tuple[np.ndarray, float]:
     """Cauchy-loss fit of the law; returns the parameters and the loss (half the Cauchy
     deviance of the residuals scaled by ``1 / weight``)."""
-    n = times.size
 
     def resid(p):
-        return (_law(p, n, quadratic)[0] - times) / weight
+        return (_law(p, bounce, quadratic)[0] - times) / weight
 
     def jac(p):
-        return _law(p, n, quadratic)[1] / weight[:, None]
+        return _law(p, bounce, quadratic)[1] / weight[:, None]
 
     sol = optimize.least_squares(resid, p0, jac=jac, loss="cauchy", method="trf")
     return sol.x, float(sol.cost)
 
 
-def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
-    """Robust fit of the flight law to onset ``times`` with timing uncertainties ``sigmas``.
+def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | None = None
+                 ) -> SequenceFit | None:
+    """Robust fit of the flight law to onset ``times`` with timing uncertainties ``sigmas``
+    at bounce numbers ``bounce`` (default 0, 1, 2, …: no bounce unheard).
 
     Each onset's residual is scaled by its own uncertainty combined with the roll's scatter
     (measured as the MAD of the residuals, corrected for the parameters fitted); the loss is
@@ -98,25 +119,29 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
     Returns None for fewer than :data:`_MIN_ONSETS` onsets or flights that do not shrink.
     """
     n = times.size
+    bounce = np.arange(n) if bounce is None else np.asarray(bounce, dtype=np.int64)
     flights = np.diff(times)
-    if n < _MIN_ONSETS or np.any(flights <= 0):
+    if n < _MIN_ONSETS or np.any(flights <= 0) or np.any(np.diff(bounce) <= 0):
         return None
-    ratio = float(np.median(flights[1:] / flights[:-1]))
+    # Per single flight: a step over m unheard bounces is m + 1 flights.
+    steps = np.diff(bounce)
+    single = flights / steps
+    ratio = float(np.median((single[1:] / single[:-1]) ** (1.0 / steps[1:])))
     if not 0.0 < ratio < 1.5:
         return None
     sig2 = np.square(np.maximum(sigmas, 1e-6))
     scatter = 0.0
-    p = np.array([times[0], np.log(flights[0]), np.log(ratio)])
+    p = np.array([times[0], np.log(single[0]), np.log(ratio)])
     quadratic = False
     for _ in range(2):  # the scatter weights the fit, the fit sets the scatter
         weight = np.sqrt(sig2 + scatter**2)
-        p, cost = _robust_fit(times, weight, list(p[:3]), False)
+        p, cost = _robust_fit(times, bounce, weight, list(p[:3]), False)
         quadratic = False
         if n >= 8:
-            p2, cost2 = _robust_fit(times, weight, [*p[:3], 0.0], True)
+            p2, cost2 = _robust_fit(times, bounce, weight, [*p[:3], 0.0], True)
             if 2.0 * (cost - cost2) > np.log(n):
                 p, quadratic = p2, True
-        law, jmat = _law(p, n, quadratic)
+        law, jmat = _law(p, bounce, quadratic)
         r = times - law
         dof = max(n - p.size, 1)
         scatter = _MAD_TO_SIGMA * float(np.median(np.abs(r))) * np.sqrt(n / dof)
@@ -128,34 +153,32 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray) -> SequenceFit | None:
     except np.linalg.LinAlgError:
         return None
     var_fit = np.einsum("ij,jk,ik->i", jmat, cov, jmat)
-    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)), dof)
+    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)), dof, p,
+                       quadratic, cov, scatter, int(bounce[0]))
 
 
-def retime(times: np.ndarray, sigmas: np.ndarray, x: np.ndarray, start: int,
-           sample_rate: int, ba: tuple[np.ndarray, np.ndarray], settle: int, *,
-           outlier: float = 0.05) -> tuple[np.ndarray, ...] | None:
+def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05) -> Roll:
     """Place every onset at its posterior given the roll's law (see the module docstring).
 
     Parameters
     ----------
-    times, sigmas
-        The roll's onsets (seconds, absolute) and their timing uncertainties.
-    x, start
-        Raw samples around the roll; ``x[0]`` is absolute sample ``start``.
-    sample_rate, ba, settle
-        As :func:`~.candidates.refine_window` needs them (the wide high-pass, its settling).
+    roll
+        The roll's onsets (seconds, absolute), bounce numbers and timing uncertainties.
+    ex
+        The audio around the roll.
     outlier
         Prior probability that a bounce is off the law by more than its scatter.
 
     Returns
     -------
-    tuple of numpy.ndarray or None
-        Time, amplitude, SNR and sigma columns, or None when no law could be fitted.
+    Roll
+        The roll timed again (unchanged when no law could be fitted).
     """
-    law = fit_sequence(times, sigmas)
+    times = roll.time_s
+    law = fit_sequence(times, roll.sigma_s, roll.bounce)
     if law is None:
-        return None
-    sr = sample_rate
+        return roll
+    sr = ex.sr
     margin = round(0.001 * sr)
     out = []
     for j, (t, mu, sd) in enumerate(zip(times, law.time_s, law.sd_s, strict=True)):
@@ -169,8 +192,7 @@ def retime(times: np.ndarray, sigmas: np.ndarray, x: np.ndarray, start: int,
         guess = (lo + hi) // 2
         prior = Prior(mean=mu * sr, sd=sd * sr, outlier=outlier, width=hi - lo,
                       dof=law.dof)
-        r = refine_window(x, start, guess, sr, ba, settle, pre=guess - lo + fit,
-                          post=2 * margin, search=guess - lo, search_after=hi - guess,
-                          prior=prior)
+        r = ex.refine(guess, pre=guess - lo + fit, post=2 * margin, search=guess - lo,
+                      search_after=hi - guess, prior=prior)
         out.append((r.sample / sr, r.amplitude, r.snr_db, r.sigma_s))
-    return tuple(np.asarray(col, dtype=float) for col in zip(*out, strict=True))
+    return roll.with_times(*(np.asarray(col, dtype=float) for col in zip(*out, strict=True)))

@@ -1,29 +1,35 @@
-"""Physics-aware selection of the bounce sequence among the candidates.
+"""The rolls among the candidates: whole candidate sequences scored as a bouncer's.
 
 A freely bouncing object's flight times shrink roughly geometrically, T_k ≈ t_B α^k, with a
 ratio that, if it changes at all, changes slowly (the exact pendulum, air drag, a speed-
-dependent restitution). Echoes, the second burst of a double hit, ring-down wiggles, clicks
-before the roll and noises after it all break that pattern.
+dependent restitution). Its impacts slow down, so their sound usually, but not always, gets
+fainter: where a stick lands on the head, its tilt, the microphone and masking all change one
+bounce's loudness. Echoes, the second burst of a double hit, ring-down wiggles, clicks before
+the roll and noises after it fit neither pattern.
 
-The tracker is a beam search over paths of onsets, run in time order over stretches of
-candidates separated by gaps longer than any flight (independent, so an hour of audio is
-tracked in pieces). A path's score is a log-likelihood ratio, "bounce sequence" against
-"unrelated sounds":
+The tracker scores every candidate sequence by its log-likelihood ratio, "the impacts of one
+bouncer, numbered k = 0, 1, 2, … with some of them unheard" against "unrelated sounds". Each
+term is evidence, none is a rule:
 
-* every onset contributes its acoustic evidence, growing with its significance ``z`` and
-  saturating (a loud click is certainly a sound, not certainly a bounce);
-* every interval after the second is compared with the prediction from the path's smoothed
-  interval ratio, with a Gaussian tolerance that widens with both onsets' timing
-  uncertainties and with the interval ratio's natural jitter, against a background that is
-  uniform in log interval; one missed (inaudible or masked) bounce may be bridged at a cost;
-* a bounce is never louder than the one before it, and nothing between two bounces is
-  louder than them (within the level measurement's scatter).
+* **acoustic**: every onset's significance ``z`` over the noise, saturating (a loud click is
+  certainly a sound, not certainly a bounce): faint candidates must be carried by the rest;
+* **timing**: every flight against the prediction from the path's running interval ratio,
+  Gaussian in the log flight with a scatter that grows with both onsets' timing
+  uncertainties and the ratio's natural jitter, against a background uniform in log
+  interval;
+* **missed bounces**: one step may bridge up to ``max_skip`` unheard bounces (a masked or
+  faint one is not the end of the roll), each at a cost, and the onsets after the gap are
+  numbered accordingly;
+* **level**: every onset's level (dB) against the path's running level trend, with a heavy-
+  tailed (Student t) scatter, against a background uniform over a wide range: a bounce
+  louder than the one before it costs a little, one 30 dB louder a lot.
 
-Only the ``beam`` best paths ending at each onset are kept, so the work per onset is bounded.
-
-The best-scoring path is the roll. It starts at the first impact that fits and stops where
-further candidates no longer add evidence, which is how the roll is followed into the noise
-exactly as far as the recording supports.
+The search is a beam search over paths in time order, over stretches of candidates separated
+by gaps longer than any flight (independent, so an hour of audio is tracked in pieces), keeping
+the ``beam`` best paths ending at each onset. The best path is a roll; it starts where the
+evidence starts and stops where further candidates no longer add to it. A recording may hold
+several rolls: the search is repeated on the candidates outside the rolls found so far for as
+long as a path scores above zero.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import gammaln
 
 from drumroll.onsets.candidates import Candidates
 
@@ -58,19 +65,21 @@ class TrackParams:
     evidence_max
         Cap on one candidate's acoustic evidence (log units).
     skip_penalty
-        Log odds against one bounce missing between two detected ones.
-    beam
-        Hypotheses kept per onset (the best paths ending there, whatever came before).
-    louder_between_db
-        Scatter allowed in the level measurement (the peak of the high-passed sound over the
-        detection function's window after the onset) where the physics says "not louder":
-        a bounce is slower than the one before it, and only that one's echoes, ring and
-        double hits come between them, all quieter than it. So a path may neither get
-        louder from bounce to bounce nor skip over a louder sound, which keeps it from
-        hopping between rolls.
+        Log odds against one bounce going unheard between two heard ones.
+    max_skip
+        Most unheard bounces in a row that one step of a path may bridge.
+    level_scatter_db, level_dof
+        Scale and degrees of freedom of the Student t scatter of one onset's level (dB)
+        about the path's running trend.
+    level_range_db
+        Width of the range over which an unrelated sound's level is taken as uniform.
+    level_smoothing
+        Weight of the newest level change in the running level trend.
     min_onsets
         Fewest onsets that make a roll: three intervals give two ratios, one to predict and one
         to test.
+    beam
+        Hypotheses kept per onset (the best paths ending there, whatever came before).
     """
 
     min_interval_s: float = 0.002
@@ -81,19 +90,23 @@ class TrackParams:
     evidence_z: float = 6.0
     evidence_max: float = 1.5
     skip_penalty: float = 3.0
+    max_skip: int = 3
+    level_scatter_db: float = 6.0
+    level_dof: float = 3.0
+    level_range_db: float = 60.0
+    level_smoothing: float = 0.3
     min_onsets: int = 4
-    louder_between_db: float = 6.0
     beam: int = 12
 
 
 @dataclass
 class Track:
-    """The chosen sequence: ``index`` into the candidates, the path score, and a reason for
-    every candidate left out."""
+    """One roll the tracker chose: ``index`` into the candidates (time order), each onset's
+    bounce number, and the path's score."""
 
     index: np.ndarray
+    bounce: np.ndarray
     score: float
-    reasons: dict[int, str]
 
 
 def _evidence(z: np.ndarray, p: TrackParams) -> np.ndarray:
@@ -110,84 +123,133 @@ def stretches(t: np.ndarray, max_gap: float) -> list[tuple[int, int]]:
     return list(itertools.pairwise(edges))
 
 
-def track(c: Candidates, params: TrackParams | None = None) -> Track:
-    """Choose the bounce sequence among the candidates (see the module docstring)."""
+def level_db(level: np.ndarray) -> np.ndarray:
+    """Levels in dB (a zero or missing level is far below anything heard)."""
+    level = np.asarray(level, dtype=float)
+    return 20.0 * np.log10(np.where(np.isfinite(level) & (level > 0), level, 1e-12))
+
+
+def track(c: Candidates, params: TrackParams | None = None) -> list[Track]:
+    """Every roll among the candidates, best first (see the module docstring).
+
+    Rolls do not overlap: after each roll is found, the candidates from its first onset to
+    where its flights would have died out are set aside, and the search is repeated on the
+    others until no path scores above zero.
+    """
     p = params or TrackParams()
     n = len(c)
     if n == 0:
-        return Track(np.zeros(0, dtype=np.int64), -math.inf, {})
+        return []
     w = _evidence(c.z, p)
-    best_path: list[int] = []
-    best_score = -math.inf
+    lev = level_db(c.level)
+    free = np.ones(n, dtype=bool)
+    found: list[Track] = []
     for lo, hi in stretches(c.time_s, p.max_interval_s):
-        path, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], c.level[lo:hi],
-                            p).run()
-        if path and score > best_score:
-            best_path, best_score = [lo + i for i in path], score
-    if not best_path:
-        strongest = int(np.argmax(c.z))
-        return Track(np.array([strongest]), float(w[strongest]), _reasons(c, [strongest]))
-    return Track(np.asarray(best_path, dtype=np.int64), best_score, _reasons(c, best_path))
+        while True:
+            idx = lo + np.flatnonzero(free[lo:hi])
+            if idx.size < 2:
+                break
+            path, bounce, score = _Beam(c.time_s[idx], w[idx], c.sigma_s[idx], lev[idx],
+                                        p).run()
+            if len(path) < 2 or score <= 0:
+                break
+            chosen = idx[path]
+            found.append(Track(chosen, bounce, score))
+            free[_span(c.time_s, chosen, lo, hi)] = False
+    found.sort(key=lambda tr: -tr.score)
+    return found
+
+
+def _span(t: np.ndarray, chosen: np.ndarray, lo: int, hi: int) -> slice:
+    """Candidates belonging to the sound of the roll ``chosen``: from its first onset to
+    where its flights, continued at their last ratio, would have died out."""
+    first, last = t[chosen[0]], t[chosen[-1]]
+    end = last
+    if chosen.size >= 3:
+        f1, f0 = t[chosen[-1]] - t[chosen[-2]], t[chosen[-2]] - t[chosen[-3]]
+        r = min(f1 / f0, 0.95) if f0 > 0 else 0.5
+        end = last + f1 * r / (1.0 - r)
+    a = lo + int(np.searchsorted(t[lo:hi], first - 1e-3, side="left"))
+    b = lo + int(np.searchsorted(t[lo:hi], end + 0.05, side="right"))
+    return slice(a, b)
 
 
 class _Beam:
     """Beam search over one stretch of candidates, in time order.
 
     A hypothesis is a path ending at some onset; for each onset the ``beam`` best paths ending
-    there are kept (in flat arrays: score, running log ratio, last interval, end, previous
-    onset, parent hypothesis). Extending to onset ``k`` looks back at every hypothesis whose
-    end lies within the longest flight before ``k`` at once (vectorised), and the arrays are
-    compacted now and then so that memory stays bounded however long the stretch is.
+    there are kept (in flat arrays: score, running log ratio, last single flight, running
+    level change per bounce, end, previous onset, bounce number of the end, parent
+    hypothesis). Extending to onset ``k`` looks back at every hypothesis whose end lies within
+    the longest reach before ``k`` at once (vectorised), and the arrays are compacted now and
+    then so that memory stays bounded however long the stretch is.
     """
 
-    def __init__(self, t: np.ndarray, w: np.ndarray, sigma: np.ndarray, amp: np.ndarray,
+    _FLOAT = ("score", "rho", "last", "dlev")
+    _INT = ("end", "prev", "bounce", "parent")
+
+    def __init__(self, t: np.ndarray, w: np.ndarray, sigma: np.ndarray, lev: np.ndarray,
                  p: TrackParams) -> None:
-        self.t, self.w, self.p, self.amp = t, w, p, amp
-        self.louder = 10.0 ** (p.louder_between_db / 20.0)
+        self.t, self.w, self.p, self.lev = t, w, p, lev
         self.sig2 = np.square(np.maximum(sigma, 1e-6))
         self.strong = np.flatnonzero(w >= 0)
-        # Background: log(interval ratio) uniform over [log(min_ratio), log(2)], i.e. a
-        # density of 1 / log_width.
+        # Timing background: log(interval ratio) uniform over [log(min_ratio), log(2)].
         self.log_width = math.log(2.0 / p.min_ratio)
         self.first_gain = math.log(self.log_width / math.log(1.0 / p.min_ratio))
+        # Level: Student t about the trend against a uniform background.
+        nu, s = p.level_dof, p.level_scatter_db
+        self.lev_norm = (gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * math.log(nu * math.pi)
+                         - math.log(s) + math.log(p.level_range_db))
+        # How far back a step may reach: the longest flight, times the unheard bounces.
+        self.reach = p.max_interval_s * (p.max_skip + 1)
         cap = max(64, 8 * p.beam)
-        self.h = {name: np.empty(cap) for name in ("score", "rho", "last")}
-        self.h.update({name: np.empty(cap, dtype=np.int64) for name in ("end", "prev", "parent")})
+        self.h = {name: np.empty(cap) for name in self._FLOAT}
+        self.h.update({name: np.empty(cap, dtype=np.int64) for name in self._INT})
         self.used = 0
         self.best = -1
 
-    def run(self) -> tuple[list[int], float]:
-        """The best path (onset indices in time order) and its score."""
+    def level_gain(self, e: np.ndarray) -> np.ndarray:
+        """Log-likelihood ratio of a level ``e`` dB off the trend."""
+        nu, s = self.p.level_dof, self.p.level_scatter_db
+        return self.lev_norm - 0.5 * (nu + 1) * np.log1p((e / s) ** 2 / nu)
+
+    def run(self) -> tuple[list[int], np.ndarray, float]:
+        """The best path (onset indices in time order), its bounce numbers and its score."""
         p, t = self.p, self.t
         first = 0  # first hypothesis whose end may still be extended
         for k in range(t.size):
             ends = self.h["end"]
-            while first < self.used and t[k] - t[ends[first]] > p.max_interval_s:
+            while first < self.used and t[k] - t[ends[first]] > self.reach:
                 first += 1
             if self.used + p.beam > self.h["score"].size:  # before any index is handed out
                 first = self._compact(first)
-            props = [self._extend(k, first), self._seeds(k)]
-            props = [q for q in props if q is not None]
+            props = [q for q in (self._extend(k, first), self._seeds(k)) if q is not None]
             if not props:
                 continue
-            score, rho, last, prev, parent = (np.concatenate(col) for col in zip(*props,
-                                                                              strict=True))
-            if score.size > p.beam:
-                top = np.argpartition(-score, p.beam - 1)[: p.beam]
-                score, rho, last, prev, parent = (a[top] for a in (score, rho, last, prev,
-                                                                    parent))
-            first = self._append(k, score, rho, last, prev, parent, first)
+            cols = [np.concatenate(col) for col in zip(*props, strict=True)]
+            if cols[0].size > p.beam:
+                top = np.argpartition(-cols[0], p.beam - 1)[: p.beam]
+                cols = [a[top] for a in cols]
+            self._append(k, *cols)
         if self.best < 0:
-            return [], -math.inf
-        path = [int(self.h["end"][self.best])]
+            return [], np.zeros(0, dtype=np.int64), -math.inf
+        h = self.h
+        path = [(int(h["end"][self.best]), int(h["bounce"][self.best]))]
         hyp = self.best
         while hyp >= 0:
-            path.append(int(self.h["prev"][hyp]))
-            hyp = int(self.h["parent"][hyp])
-        return sorted(set(path)), float(self.h["score"][self.best])
+            parent = int(h["parent"][hyp])
+            if parent < 0:  # the seed: its first onset is bounce 0
+                path.append((int(h["prev"][hyp]), 0))
+            else:
+                path.append((int(h["end"][parent]), int(h["bounce"][parent])))
+            hyp = parent
+        path.reverse()
+        return ([i for i, _ in path], np.array([b for _, b in path], dtype=np.int64),
+                float(h["score"][self.best]))
 
     def _extend(self, k: int, first: int) -> tuple | None:
-        """Proposals extending the live hypotheses to onset ``k``."""
+        """Proposals extending the live hypotheses to onset ``k``, each with the number of
+        unheard bounces between that fits best."""
         p, t, h = self.p, self.t, self.h
         idx = np.arange(first, self.used)
         if idx.size == 0:
@@ -195,47 +257,45 @@ class _Beam:
         j, i = h["end"][idx], h["prev"][idx]
         last, rho = h["last"][idx], h["rho"][idx]
         new = t[k] - t[j]
-        ok = (new >= np.maximum(p.min_ratio * last, p.min_interval_s)) & (new <= 2.2 * last)
-        # Between two consecutive bounces come only the last one's echoes, ring and double
-        # hits, all quieter than it: a path that skips over a louder sound is not a roll.
-        ok &= self._loudest_between(j, k) <= self.louder * np.maximum(self.amp[j], self.amp[k])
-        # Each impact is slower than the one before it, so it is not louder (within the
-        # measurement's scatter).
-        ok &= self.amp[k] <= self.louder * self.amp[j]
         seed = np.isnan(rho)
+        r = np.exp(np.where(seed, 0.0, rho))
+        ok = new >= np.maximum(p.min_ratio * last * np.where(seed, 1.0, r), p.min_interval_s)
+        # After a seed the ratio is unknown: one flight, and flights do not grow.
         ok &= ~seed | (new <= last * math.exp(3.0 * p.ratio_jitter))
+        ok &= seed | (new <= last * np.sum(r[:, None] ** np.arange(1, p.max_skip + 2), axis=1)
+                      * math.exp(4.0 * p.ratio_jitter * math.sqrt(p.max_skip + 1)))
         if not ok.any():
             return None
-        idx, j, i, last, rho, new, seed = (a[ok] for a in (idx, j, i, last, rho, new, seed))
-        # One missing bounce may be bridged: new = last (r + r^2).
-        r = np.exp(np.where(seed, 0.0, rho))
+        idx, j, i, last, rho, new, seed, r = (a[ok] for a in (idx, j, i, last, rho, new,
+                                                                seed, r))
         tim2 = (self.sig2[j] + self.sig2[k]) / new**2 + (self.sig2[i] + self.sig2[j]) / last**2
         jit2 = p.ratio_jitter ** 2
         norm = 0.5 * math.log(2.0 * math.pi)
         gains = []
-        for m in (0, 1):
-            pred = last * (r if m == 0 else r + r * r)
+        preds = []
+        for m in range(p.max_skip + 1):
+            pred = last * np.sum(r[:, None] ** np.arange(1, m + 2), axis=1)
             var = jit2 * (m + 1) + tim2
-            gains.append(-0.5 * np.log(new / pred) ** 2 / var - 0.5 * np.log(var) - norm
-                         + math.log(self.log_width) - m * p.skip_penalty)
-        skip = gains[1] > gains[0]
-        gain = np.where(seed, self.first_gain, np.maximum(gains[0], gains[1]))
-        skip &= ~seed
-        ratio = np.where(skip, (-1.0 + np.sqrt(1.0 + 4.0 * new / last)) / 2.0, new / last)
-        step = np.where(skip, last * ratio * ratio, new)
+            g = (-0.5 * np.log(new / pred) ** 2 / var - 0.5 * np.log(var) - norm
+                 + math.log(self.log_width) - m * p.skip_penalty)
+            gains.append(np.where(seed & (m > 0), -np.inf, g))
+            preds.append(pred)
+        gains_a = np.stack(gains)
+        m_best = np.argmax(gains_a, axis=0)
+        gain = np.where(seed, self.first_gain, gains_a[m_best, np.arange(m_best.size)])
+        m_best = np.where(seed, 0, m_best)
+        # The ratio this step observed (over m + 1 flights), and the single flight it ends.
+        ratio = _step_ratio(new / last, m_best + 1)
+        step = last * ratio ** (m_best + 1)
         obs = np.log(ratio)
         rho_new = np.where(seed, obs, (1 - p.smoothing) * np.where(seed, 0.0, rho)
                            + p.smoothing * obs)
-        score = h["score"][idx] + self.w[k] + gain
-        return score, rho_new, step, j, idx
-
-    def _loudest_between(self, j: np.ndarray, k: int) -> np.ndarray:
-        """For each onset ``j`` before ``k``, the largest amplitude strictly between them."""
-        lo = int(j.min())
-        inner = self.amp[lo + 1: k]
-        # suffix[m] = max(amp[lo + 1 + m: k]); a pair of neighbours has nothing in between.
-        suffix = np.concatenate((np.maximum.accumulate(inner[::-1])[::-1], [0.0]))
-        return suffix[j - lo]
+        dl = (self.lev[k] - self.lev[j]) / (m_best + 1)
+        dlev = h["dlev"][idx]
+        lev_gain = self.level_gain(self.lev[k] - self.lev[j] - (m_best + 1) * dlev)
+        dlev_new = (1 - p.level_smoothing) * dlev + p.level_smoothing * dl
+        score = h["score"][idx] + self.w[k] + gain + lev_gain
+        return score, rho_new, step, dlev_new, j, h["bounce"][idx] + m_best + 1, idx
 
     def _seeds(self, k: int) -> tuple | None:
         """New paths ``(i, k)``: a roll opens with two clearly significant onsets."""
@@ -246,16 +306,13 @@ class _Beam:
         a = np.searchsorted(t[s], t[k] - p.max_interval_s, side="left")
         b = np.searchsorted(t[s], t[k] - p.min_interval_s, side="right")
         i = s[a:b]
-        if i.size:
-            i = i[(self._loudest_between(i, k)
-                   <= self.louder * np.maximum(self.amp[i], self.amp[k]))
-                  & (self.amp[k] <= self.louder * self.amp[i])]
         if i.size == 0:
             return None
-        return (self.w[i] + self.w[k], np.full(i.size, np.nan), t[k] - t[i], i,
-                np.full(i.size, -1, dtype=np.int64))
+        score = self.w[i] + self.w[k] + self.level_gain(self.lev[k] - self.lev[i])
+        return (score, np.full(i.size, np.nan), t[k] - t[i], np.zeros(i.size), i,
+                np.ones(i.size, dtype=np.int64), np.full(i.size, -1, dtype=np.int64))
 
-    def _append(self, k, score, rho, last, prev, parent, first) -> int:
+    def _append(self, k, score, rho, last, dlev, prev, bounce, parent) -> None:
         """Store the hypotheses ending at ``k`` (growing the arrays if needed)."""
         h = self.h
         if self.used + score.size > h["score"].size:
@@ -264,13 +321,12 @@ class _Beam:
                 grown[: self.used] = arr[: self.used]
                 h[name] = grown
         sl = slice(self.used, self.used + score.size)
-        h["score"][sl], h["rho"][sl], h["last"][sl] = score, rho, last
-        h["end"][sl], h["prev"][sl], h["parent"][sl] = k, prev, parent
+        h["score"][sl], h["rho"][sl], h["last"][sl], h["dlev"][sl] = score, rho, last, dlev
+        h["end"][sl], h["prev"][sl], h["bounce"][sl], h["parent"][sl] = k, prev, bounce, parent
         top = self.used + int(np.argmax(score))
         if self.best < 0 or h["score"][top] > h["score"][self.best]:
             self.best = top
         self.used += score.size
-        return first
 
     def _compact(self, first: int) -> int:
         """Drop hypotheses that neither can be extended nor lie on a kept path, and make room
@@ -304,9 +360,21 @@ class _Beam:
         return first
 
 
-def _reasons(c: Candidates, kept: list[int]) -> dict[int, str]:
-    """Why each candidate not in ``kept`` was left out."""
-    return explain(c.time_s, c.time_s[kept], [i for i in range(len(c)) if i not in set(kept)])
+def _step_ratio(q: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The ratio r with r + r² + … + r^n = q (one step over n flights, the first of them
+    ``q`` times the last known flight), by Newton's method from the geometric-mean guess."""
+    n = np.asarray(n, dtype=float)
+    r = np.where(n == 1, q, np.clip((q / n) ** (1.0 / n), 1e-3, 2.0))
+    multi = n > 1
+    if not multi.any():
+        return r
+    for _ in range(8):
+        powers = r[:, None] ** np.arange(1, int(n.max()) + 1)
+        mask = np.arange(1, int(n.max()) + 1)[None, :] <= n[:, None]
+        f = np.sum(powers * mask, axis=1) - q
+        df = np.sum(np.arange(1, int(n.max()) + 1) * powers / r[:, None] * mask, axis=1)
+        r = np.where(multi, np.clip(r - f / np.maximum(df, 1e-12), 1e-3, 2.0), r)
+    return r
 
 
 def explain(t: np.ndarray, kept_t: np.ndarray, left_out: list[int]) -> dict[int, str]:
