@@ -215,8 +215,10 @@ def read_audio(path: str | os.PathLike[str], *, start: int = 0,
     return (np.concatenate(blocks) if blocks else np.zeros(0)), info.sample_rate
 
 
-def read_excerpt(path: str | os.PathLike[str], start: int, stop: int) -> np.ndarray:
-    """Read frames ``[start, stop)`` as mono ``float64`` without validating them again.
+def read_excerpt(path: str | os.PathLike[str], start: int, stop: int,
+                 channel: int | None = None) -> np.ndarray:
+    """Read frames ``[start, stop)`` as mono ``float64`` without validating them again:
+    the mean of the channels, or only ``channel`` (0-based).
 
     Frames outside the file are returned as zeros, so callers can ask for windows that hang
     over either end.
@@ -230,6 +232,9 @@ def read_excerpt(path: str | os.PathLike[str], start: int, stop: int) -> np.ndar
             return out
         f.seek(lo)
         block = f.read(stop - lo, dtype="float64", always_2d=True)
-    mono = block.mean(axis=1) if block.shape[1] > 1 else block[:, 0]
+    if channel is not None:
+        mono = block[:, channel]
+    else:
+        mono = block.mean(axis=1) if block.shape[1] > 1 else block[:, 0]
     out[lo - start: lo - start + mono.size] = mono
     return out

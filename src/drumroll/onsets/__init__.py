@@ -1,13 +1,20 @@
-"""Impact times from a recording, with a timing uncertainty for each.
+"""Impact times from a recording: every roll in it, every bounce numbered, each onset with a
+timing uncertainty.
 
 ``detect(path_or_array, sr=None, **options) -> OnsetTable`` streams the recording through a
 sub-millisecond high-frequency detection function (:mod:`.odf`), picks significant peaks
-against robust noise statistics (:mod:`.peaks`), refines each to the sample
-(:mod:`.refine`), keeps the sequence whose intervals shrink like a bouncer's
-(:mod:`.tracking`), follows it into the noise window by window where physics predicts
-the next impact (:mod:`.follow`), and times each onset again with the roll's help: its law
-as a prior (:mod:`.sequence`), and its loudest impact's sound envelope as a template for the
-faint ones whose first milliseconds are lost in what they land in (:mod:`.envelope`).
+against robust noise statistics (:mod:`.peaks`) and refines each to the sample
+(:mod:`.refine`, :mod:`.candidates`). The tracker scores whole candidate sequences as a
+bouncer's (timing, unheard bounces, level) and finds every roll (:mod:`.tracking`); the
+onsets are timed on the channel that hears them first (:mod:`.channels`). Then each roll, a
+:class:`~.roll.Roll` with the audio around it (:class:`~.excerpt.Excerpt`), goes through the
+stages :data:`.detector.STAGES` lists: from its first impact that stands out, back to an
+impact before it where the flights continue (:mod:`.follow`), onsets later than the roll puts
+them moved to an earlier stage of their sound (:mod:`.start`), onwards window by window where
+the flights put the next bounce, numbering on past unheard ones (:mod:`.follow`,
+:mod:`.prediction`), every onset timed again with the roll's law as its prior
+(:mod:`.sequence`) and against its loudest impact's sound (:mod:`.envelope`), and the first
+impact timed as if it had landed in the ring the next ones land in (:mod:`.start`).
 :func:`read_onsets` reads onset files back (:mod:`.table`).
 """
 

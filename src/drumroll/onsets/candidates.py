@@ -275,7 +275,8 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
                      search_after=search_after,
                      prior=None if prior is None else prior.shifted(-a))
     peak = float(np.abs(y[r.sample: r.sample + level]).max()) if level > 0 else float("nan")
-    return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s, peak)
+    return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s, peak,
+                   r.raw_snr_db)
 
 
 def _merge_close(c: Candidates, gap_s: float) -> Candidates:

@@ -20,6 +20,7 @@ import numpy as np
 from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe, read_excerpt
 from drumroll.errors import AudioError
 from drumroll.onsets.candidates import Candidates, CandidateStream
+from drumroll.onsets.channels import earliest_channel
 from drumroll.onsets.envelope import next_by_envelope, retime_by_envelope
 from drumroll.onsets.excerpt import Excerpt
 from drumroll.onsets.follow import FollowParams, extend_back, follow
@@ -142,7 +143,9 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     ----------
     source
         A file soundfile reads (read in blocks: any length), or an array of samples
-        (``(n,)`` or ``(n, channels)``; channels are averaged) together with ``sr``.
+        (``(n,)`` or ``(n, channels)``) together with ``sr``. Candidates are found on the
+        mean of the channels, onsets timed on the one that hears them first
+        (:mod:`.channels`).
     sr
         Sample rate of an array ``source``; ignored for files.
     threshold
@@ -180,40 +183,49 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
         if sr is None or sr <= 0:
             raise AudioError(f"{name}: a sample rate (sr) is needed with an array")
         rate = int(sr)
-        mono = _mono(source, name)
+        samples = _samples(source, name)
+        n_channels = samples.shape[1]
+        mono = samples.mean(axis=1)
         blocks: Iterable[np.ndarray] = (mono[i: i + block_frames]
                                         for i in range(0, mono.size, block_frames))
 
-        def excerpt(start: int, stop: int) -> np.ndarray:
+        def excerpt(start: int, stop: int, channel: int | None = None) -> np.ndarray:
             out = np.zeros(stop - start)
             lo, hi = max(start, 0), min(stop, mono.size)
             if hi > lo:
-                out[lo - start: hi - start] = mono[lo:hi]
+                out[lo - start: hi - start] = (mono[lo:hi] if channel is None
+                                               else samples[lo:hi, channel])
             return out
     else:
         name = str(Path(source))
-        rate = probe(source).sample_rate
+        info = probe(source)
+        rate, n_channels = info.sample_rate, info.channels
         blocks = iter_blocks(source, block_frames)
 
-        def excerpt(start: int, stop: int) -> np.ndarray:
-            return read_excerpt(source, start, stop)
+        def excerpt(start: int, stop: int, channel: int | None = None) -> np.ndarray:
+            return read_excerpt(source, start, stop, channel)
 
     stream = CandidateStream(rate, odf, threshold=threshold)
     for block in blocks:
         stream.feed(block)
     cands = stream.finish()
+    # The candidates are found on the mean of the channels; the onsets are timed on the
+    # channel that hears them first.
+    channel = earliest_channel(cands, n_channels, rate, odf, excerpt)
     ctx = Context(tparams, FollowParams(ratio_jitter=tparams.ratio_jitter,
                                         min_interval_s=tparams.min_interval_s),
                   stream.total / rate)
-    rolls = _rolls(cands, ctx, odf, name, rate, excerpt)
-    return _table(rolls, cands, name, rate, all_candidates)
+    rolls = _rolls(cands, ctx, odf, name, rate,
+                   lambda start, stop: excerpt(start, stop, channel))
+    return _table(rolls, cands, name, rate, all_candidates, channel)
 
 
-def _mono(x: np.ndarray, name: str) -> np.ndarray:
+def _samples(x: np.ndarray, name: str) -> np.ndarray:
+    """An array source as ``(frames, channels)`` float64, checked."""
     x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 2:
-        x = x.mean(axis=1)
-    if x.ndim != 1 or x.size == 0:
+    if x.ndim == 1:
+        x = x[:, None]
+    if x.ndim != 2 or x.size == 0:
         raise AudioError(f"{name}: expected a non-empty 1-D or 2-D array of samples")
     if not np.isfinite(x).all():
         raise AudioError(f"{name}: NaN or infinite samples")
@@ -295,8 +307,8 @@ def _excerpt_around(roll: Roll, ctx: Context, odf: OdfParams, rate: int,
     return Excerpt(excerpt(start, stop), start, rate, odf)
 
 
-def _table(rolls: list[Roll], c: Candidates, name: str, rate: int, all_candidates: bool
-           ) -> OnsetTable:
+def _table(rolls: list[Roll], c: Candidates, name: str, rate: int, all_candidates: bool,
+           channel: int | None) -> OnsetTable:
     """The onset table of the rolls; with ``all_candidates``, every candidate that is no
     onset of a roll, with the reason."""
     times = np.concatenate([r.time_s for r in rolls])
@@ -317,7 +329,7 @@ def _table(rolls: list[Roll], c: Candidates, name: str, rate: int, all_candidate
     return OnsetTable(times, columns["amplitude"], columns["snr_db"], columns["sigma_s"],
                       rejected_time_s=c.time_s[rejected], rejected_snr_db=c.snr_db[rejected],
                       rejected_reason=reasons, source=name, sample_rate=rate,
-                      bounce=columns["bounce"], roll=roll_of)
+                      channel=channel, bounce=columns["bounce"], roll=roll_of)
 
 
 #: Candidates this close to a reported onset are that onset.

@@ -47,8 +47,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
-from drumroll.onsets.excerpt import Excerpt
+from drumroll.onsets.excerpt import BIN_S, Excerpt
 from drumroll.onsets.roll import Roll
+from drumroll.onsets.start import BACK_S
 
 #: Log Bayes factor ("elsewhere" against "here") at which the envelope overrides the change
 #: point.
@@ -227,9 +228,10 @@ def retime_by_envelope(onsets: Roll, ex: Excerpt) -> Roll:
         if k == roll.loudest:
             continue
         flight_bins = (pos[k] - pos[k - 1]) / width
-        # A faint bounce shows up at the latest where its sound peaks; never look back past
-        # the middle of its flight.
-        back = min(peak_bins + margin, int(0.5 * flight_bins))
+        # A faint bounce shows up at the latest where its sound peaks, and an impact's
+        # loudest stage comes within BACK_S of its start (a later peak of the template is
+        # the room's); never look back past the middle of its flight.
+        back = min(peak_bins + margin, int(0.5 * flight_bins), round(BACK_S / BIN_S))
         here = (pos[k] - offset) / width  # this onset on the template's bin grid
         lo = int(max(math.floor(here) - back - roll.before, (pos[k - 1] - offset) / width + margin,
                      0))

@@ -196,10 +196,21 @@ class _Search:
         fit = max(64, min(round(0.008 * ex.sr) - margin, round(0.5 * dt * ex.sr)))
         r = ex.refine((ex.f0 + at) * ex.hop, pre=back + fit, post=margin, search=back,
                       search_after=margin)
-        if r.snr_db < p.min_snr_db:  # there is a sound, but not one that can be timed
-            return None
+        if r.snr_db < p.min_snr_db and not _resonant(r.sample / ex.sr, r, prior, p):
+            return None  # there is a sound, but not one that can be timed
         r = start_of_sound(ex, r, dt, self.margin, prior)
         return r.sample / ex.sr, r
+
+
+def _resonant(t: float, r: Refined, prior: StartPrior | None, p: FollowParams) -> bool:
+    """Whether an onset quieter than the whitened ring it lands in can be timed all the
+    same: where each impact excites the same resonance as the ring (a wood block, a ball's
+    shell), the ring's prediction also predicts much of the new impact away. Such an onset
+    counts if its sound as recorded stands out (``raw_snr_db``) and it lies where the
+    bounces before it put it (within two predictive sd): a mistimed faint impact does not.
+    ``t`` is the onset's time (s)."""
+    return (prior is not None and r.raw_snr_db >= p.min_snr_db
+            and abs(t - prior.mean_s) <= 2.0 * prior.sd_s)
 
 
 def _tail(z: np.ndarray, q: float) -> tuple[float, float, float]:

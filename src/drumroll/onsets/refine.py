@@ -52,6 +52,10 @@ class Refined:
     level
         Peak absolute value of the high-passed sound over a longer window after the onset
         (the loudness the tracker compares; NaN when not measured).
+    raw_snr_db
+        As ``snr_db``, on the sound as recorded (not whitened): where each impact excites
+        the same resonance as the ring it lands in (a wood block, a ball's shell), the ring's
+        prediction also predicts much of the new impact away, and this is the truer margin.
     """
 
     sample: int
@@ -60,6 +64,7 @@ class Refined:
     sigma_s: float
     rise_s: float
     level: float = float("nan")
+    raw_snr_db: float = float("nan")
 
 
 #: Splits whose tempered AIC is within this of the best are statistically equivalent
@@ -253,9 +258,13 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
         lag = float(post)
     sigma = float(np.sqrt(spread**2 + lag**2 + 1.0 / 12.0) / sample_rate)
     # The impact's own sound against what was already there, as energies over the window
-    # after the onset (the whitened sound before it is the reference).
+    # after the onset (the whitened sound before it is the reference); and the same on the
+    # sound as recorded.
     e_after = float(np.mean(after * after)) if after.size else 0.0
-    e_before = noise * noise
-    own = max(e_after / e_before - 1.0, 1e-6)
+    own = max(e_after / (noise * noise) - 1.0, 1e-6)
+    raw_e_after = float(np.mean(raw[k: k + post] ** 2)) if k < raw.size else 0.0
+    raw_e_before = float(np.mean(raw[order:k] ** 2)) if k > order + 1 else raw_noise**2
+    raw_own = max(raw_e_after / max(raw_e_before, 1e-300) - 1.0, 1e-6)
     return Refined(sample=start + k, amplitude=amplitude,
-                   snr_db=float(10.0 * np.log10(own)), sigma_s=sigma, rise_s=rise)
+                   snr_db=float(10.0 * np.log10(own)), sigma_s=sigma, rise_s=rise,
+                   raw_snr_db=float(10.0 * np.log10(raw_own)))

@@ -59,19 +59,6 @@ class SequenceFit:
     time_s: np.ndarray
     sd_s: np.ndarray
     dof: int
-    params: np.ndarray
-    quadratic: bool
-    cov: np.ndarray
-    scatter_s: float
-    first_bounce: int
-
-    def predict(self, bounce: int) -> tuple[float, float]:
-        """The law's time of bounce number ``bounce`` (any, also past the fitted onsets) and
-        the scale of an onset there about it (the scatter and the fit's own uncertainty)."""
-        k = np.array([self.first_bounce, bounce])
-        t, jmat = _law(self.params, k, self.quadratic)
-        var_fit = float(jmat[1] @ self.cov @ jmat[1])
-        return float(t[1]), float(np.sqrt(self.scatter_s**2 + max(var_fit, 0.0)))
 
 
 def _law(p: np.ndarray, bounce: np.ndarray, quadratic: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -80,7 +67,8 @@ def _law(p: np.ndarray, bounce: np.ndarray, quadratic: bool) -> tuple[np.ndarray
     k = bounce - bounce[0]
     i = np.arange(int(k[-1]), dtype=float)
     c = p[3] if quadratic else 0.0
-    f = np.exp(p[1] + p[2] * i + c * i * i)
+    # (The optimiser may try absurd parameters on its way: no flight is e^20 s long.)
+    f = np.exp(np.minimum(p[1] + p[2] * i + c * i * i, 20.0))
 
     def at_bounces(v: np.ndarray) -> np.ndarray:
         return np.concatenate(([0.0], np.cumsum(v)))[k]
@@ -153,8 +141,7 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | Non
     except np.linalg.LinAlgError:
         return None
     var_fit = np.einsum("ij,jk,ik->i", jmat, cov, jmat)
-    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)), dof, p,
-                       quadratic, cov, scatter, int(bounce[0]))
+    return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)), dof)
 
 
 def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05) -> Roll:

@@ -34,7 +34,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import logsumexp
+from scipy.special import log_ndtr, logsumexp
 
 from drumroll.onsets.excerpt import Excerpt
 from drumroll.onsets.prediction import flight_predictor
@@ -75,6 +75,15 @@ _ALIGN_S, _BEFORE_ALIGN_S = 0.010, 0.002
 #: with 84 % of the errors within one predictive sd and 97 % within two at 0.5 %.
 _PRIOR_JITTER = 0.005
 
+#: Recent flights the prediction is fitted to, and the fewest that make one (a line and two
+#: degrees of freedom for its scatter).
+_HISTORY, _MIN_FLIGHTS = 6, 4
+
+#: Least margin (:func:`margin_db`) of a bounce whose recorded background the first impact
+#: is timed in: a tenfold power, where the envelope shows the sound's shape above its
+#: background rather than the noise's.
+_CLEAR_DB = 10.0
+
 
 @dataclass(frozen=True)
 class StartPrior:
@@ -97,10 +106,11 @@ def law_prior(roll: Roll, bounce: int) -> StartPrior | None:
     smooth law fitted to a long roll and continued is off by more than its own scatter says
     wherever the real law is not of its form (a pendulum released with speed, a ball whose
     restitution drifts), while one step of the recent trend is not. None for fewer than
-    three onsets."""
-    if len(roll) < 3:
+    :data:`_MIN_FLIGHTS` recent flights: a line through fewer leaves too few to measure the
+    scatter about it."""
+    if int(np.count_nonzero(np.diff(roll.bounce)[-_HISTORY:] == 1)) < _MIN_FLIGHTS:
         return None
-    predict = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s,
+    predict = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s, _HISTORY,
                                ratio_jitter=_PRIOR_JITTER)
     if predict is None:
         return None
@@ -166,9 +176,16 @@ def rise_evidence(ex: Excerpt, onset: int, reach: int, margin: float | None = No
     c = np.concatenate(([0.0], np.cumsum(seg - mu0)))
     j = np.arange(0, n - n_stage + 1)
     shift = (c[j + n_stage] - c[j]) / n_stage  # the first stage's level over the background
-    llr = np.where(shift > 0, 0.5 * n_stage * shift**2 / s**2 / temper, -np.inf)
-    occam = 0.5 * math.log(2.0 * math.pi * s**2 * temper / n_stage) - math.log(_LEVEL_RANGE_DB)
-    return ex.start + (end - n + j) * w, llr + occam
+    # The stage's level, uniform over [0, range] dB, integrated out (exactly: a Gaussian
+    # measurement of it with sd s_m): a stage fainter than the background's scatter is
+    # possible too, and costs only the prior mass of so faint a level.
+    s_m = s * math.sqrt(temper / n_stage)
+    lo, hi = -shift / s_m, (_LEVEL_RANGE_DB - shift) / s_m
+    log_bf = (0.5 * (shift / s_m) ** 2 + math.log(math.sqrt(2.0 * math.pi) * s_m
+                                                  / _LEVEL_RANGE_DB)
+              + log_ndtr(hi) + np.log1p(-np.exp(np.minimum(log_ndtr(lo) - log_ndtr(hi), 0.0))
+                                        + 1e-300))
+    return ex.start + (end - n + j) * w, log_bf
 
 
 def start_of_sound(ex: Excerpt, r: Refined, flight: float | None, margin: float | None,
@@ -198,16 +215,19 @@ def start_of_sound(ex: Excerpt, r: Refined, flight: float | None, margin: float 
     if rise is None:
         return r
     starts, log_bf = rise
-    # Each place's posterior weight (a priori uniform over the stretch, then weighed by
-    # where the roll puts the bounce) against staying where the onset is.
-    post = log_bf - math.log(starts.size) + prior.log_density(starts / sr)
+    # Each place's posterior weight against staying where the onset is: the places' prior
+    # odds are the ratio of the prior's densities there (one bin each), their likelihood
+    # ratios the Bayes factors.
+    post = log_bf + prior.log_density(starts / sr)
     if float(logsumexp(post)) - prior.log_density(r.sample / sr) < STRONG:
         return r
     sample = int(starts[int(np.argmax(post))])
+    weight = np.exp(post - post.max())
+    spread = float(np.sqrt(np.sum(weight * (starts - sample) ** 2) / weight.sum())) / sr
     _, w = ex.band_power()
     fit = max(64, min(round(0.006 * sr), round(0.3 * (flight or 1.0) * sr)))
     moved = ex.refine(sample, pre=w + fit, post=round(0.002 * sr), search=w, search_after=w)
-    sigma = math.hypot(moved.sigma_s, w / sr / math.sqrt(12.0))
+    sigma = math.hypot(moved.sigma_s, w / sr / math.sqrt(12.0), spread)
     return Refined(moved.sample, moved.amplitude, moved.snr_db, sigma, moved.rise_s,
                    moved.level)
 
@@ -241,7 +261,8 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
     less the aligned offset is where the first impact's onset is on the same point of its
     sound; the median over the bounces moves it, their spread goes into its ``sigma_s``.
     For a sound that starts at its loudest the shift is nil; for one whose first stages are
-    under the ring (a snare, a lossy codec's pre-echo) it is their length.
+    under the ring (a snare, a lossy codec's pre-echo) it is their length. Only bounces that
+    stand out of their background by :data:`_CLEAR_DB` are aligned on.
     """
     if len(roll) < 3:
         return roll
@@ -268,7 +289,8 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
     for j in range(1, min(_RINGING, len(roll) - 1) + 1):
         nj = round(roll.time_s[j] * sr)
         n_ref = round(_REFERENCE_S * sr) // w
-        if nj - (before + n_ref) * w < ex.start or nj + n_bins * w > ex.stop:
+        if (nj - (before + n_ref) * w < ex.start or nj + n_bins * w > ex.stop
+                or margin_db(ex, nj) < _CLEAR_DB):
             continue
         target = envelope(nj + rel)
         ring = float(np.median(envelope(nj - np.arange(1, n_ref + 1) * w)))

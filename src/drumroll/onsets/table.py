@@ -59,6 +59,9 @@ class OnsetTable:
         Where the onsets came from (a file name, or ``"<array>"``).
     sample_rate
         Sample rate of the recording, if known.
+    channel
+        The channel (0-based) the onsets were timed on, where a recording has several
+        (the one that hears the impacts first); None for one channel or unknown.
     bounce
         Bounce number k of each onset within its roll (keyword; ``None``: 0, 1, 2, … in time
         order within each roll). Strictly increasing with time within a roll; a missing number
@@ -81,6 +84,7 @@ class OnsetTable:
     rejected_reason: list[str] = field(default_factory=list)
     source: str = ""
     sample_rate: int | None = None
+    channel: int | None = field(default=None, kw_only=True)
     bounce: np.ndarray | None = field(default=None, kw_only=True)
     roll: np.ndarray | None = field(default=None, kw_only=True)
 
