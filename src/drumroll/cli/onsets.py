@@ -6,15 +6,17 @@ import argparse
 import sys
 
 from drumroll import fileio
+from drumroll.onsets.table import COLUMNS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``onsets`` subcommand."""
     p = subparsers.add_parser(
         "onsets", help="extract impact times from a recording",
-        description="Find the impacts of a drumroll (or any freely bouncing object) in a "
-        "recording, to the sample, each with its timing uncertainty. Without -o the CSV "
-        "(time_s,amplitude,snr_db,sigma_s,interval_s) is printed.")
+        description="Find the impacts of every drumroll (or other freely bouncing object) in "
+        "a recording, to the sample, each with its timing uncertainty and its bounce number "
+        "(0 for a roll's first impact; an unheard bounce leaves a gap). Without -o the CSV "
+        f"({','.join(COLUMNS)}) is printed.")
     p.add_argument("audio", metavar="AUDIO", help="recording (WAV, FLAC, OGG, MP3, ...)")
     p.add_argument("-o", "--output", metavar="CSV", help="write the onset table here")
     p.add_argument("--labels", metavar="TXT", help="also write an Audacity label track")
@@ -53,6 +55,23 @@ def run(args: argparse.Namespace) -> int:
 
         write_onset_plot(args.plot, args.audio, table, overwrite=args.force)
     if args.output:
-        print(f"drumroll: {len(table)} impacts from {table.time_s[0]:.4f} s to "
-              f"{table.time_s[-1]:.4f} s written to {args.output}", file=sys.stderr)
+        print(f"drumroll: {_describe(table)} written to {args.output}", file=sys.stderr)
     return 0
+
+
+def _describe(table) -> str:
+    """One line on what was found: each roll's impacts, span and unheard bounces, and the
+    channel timed on."""
+    rolls = []
+    for n in table.rolls:
+        roll = table.select_roll(n)
+        gaps = table.gaps(n)
+        missing = f", bounce{'s' if len(gaps) > 1 else ''} {', '.join(map(str, gaps))} " \
+            "unheard" if gaps else ""
+        rolls.append(f"{len(roll)} impacts from {roll.time_s[0]:.4f} s to "
+                     f"{roll.time_s[-1]:.4f} s{missing}")
+    text = rolls[0] if len(rolls) == 1 else \
+        f"{len(rolls)} rolls: " + "; ".join(f"roll {n}: {r}" for n, r in enumerate(rolls))
+    if table.channel is not None:
+        text += f" (timed on channel {table.channel + 1}, which hears the impacts first)"
+    return text

@@ -20,7 +20,18 @@ impact timed as if it had landed in the ring the next ones land in (:mod:`.start
 
 from __future__ import annotations
 
-from drumroll.onsets.detector import detect
+from typing import Any
+
 from drumroll.onsets.table import COLUMNS, OnsetTable, read_onsets
 
 __all__ = ["COLUMNS", "OnsetTable", "detect", "read_onsets"]
+
+
+def __getattr__(name: str) -> Any:
+    # The detector needs scipy.signal (half a second to import): loaded on first use, so
+    # that reading an onset table, or a command's --help, does not wait for it.
+    if name == "detect":
+        from drumroll.onsets.detector import detect
+
+        return detect
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -23,12 +23,12 @@ from drumroll.onsets.candidates import Candidates, CandidateStream
 from drumroll.onsets.channels import earliest_channel
 from drumroll.onsets.envelope import next_by_envelope, retime_by_envelope
 from drumroll.onsets.excerpt import Excerpt
-from drumroll.onsets.follow import FollowParams, extend_back, follow
+from drumroll.onsets.follow import OFF_LAW, FollowParams, follow
 from drumroll.onsets.odf import OdfParams
 from drumroll.onsets.prediction import flight_predictor
 from drumroll.onsets.roll import Roll
 from drumroll.onsets.sequence import retime_by_law
-from drumroll.onsets.start import first_in_ring, time_at_start
+from drumroll.onsets.start import first_in_ring, on_course, time_at_start
 from drumroll.onsets.table import OnsetTable
 from drumroll.onsets.tracking import Track, TrackParams, explain, track
 
@@ -58,12 +58,6 @@ def from_first_timeable(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
     return roll.subset(slice(int(timeable[0]), None)).renumbered()
 
 
-def back_to_the_first(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
-    """An impact before the first onset where the flights continued back put it
-    (:func:`~.follow.extend_back`)."""
-    return extend_back(roll, ex, ctx.follow)
-
-
 def up_to_the_last_timeable(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
     """Trailing onsets quieter than what they land in were carried by their timing alone;
     their start cannot be told to the sample, so the roll is reported up to the last one that
@@ -78,6 +72,12 @@ def sound_starts(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
     """Every onset later than the bounces before it put it moved to an earlier start of its
     sound (:func:`~.start.time_at_start`)."""
     return time_at_start(roll, ex)
+
+
+def off_course(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
+    """Onsets far from where the bounces before them put them dropped
+    (:func:`~.start.on_course`)."""
+    return on_course(roll, OFF_LAW)
 
 
 def in_ring(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
@@ -123,12 +123,12 @@ def completed(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
 #: What is done to every roll the tracker finds, in order.
 STAGES: tuple[Stage, ...] = (
     from_first_timeable,
-    back_to_the_first,
     up_to_the_last_timeable,
     sound_starts,
     onwards,
     law,
     envelope,
+    off_course,
     in_ring,
     completed,
 )
@@ -296,12 +296,10 @@ def _predicted_end(roll: Roll) -> float:
 
 def _excerpt_around(roll: Roll, ctx: Context, odf: OdfParams, rate: int,
                     excerpt: Callable[[int, int], np.ndarray]) -> Excerpt:
-    """The audio from before the roll (far enough back for one flight longer than its first,
-    and for the detection function's statistics) to after its predicted end."""
+    """The audio from before the roll (for the detection function's statistics) to after
+    its predicted end."""
     t = roll.time_s
-    first = t[1] - t[0] if len(roll) > 1 else 0.5
-    before = max(_CONTEXT_S, min(2.0 * first, ctx.track.max_interval_s) + 0.1)
-    start = max(int((t[0] - before) * rate), 0)
+    start = max(int((t[0] - _CONTEXT_S) * rate), 0)
     end_s = min(_predicted_end(roll), ctx.end_s)
     stop = min(int((end_s + _CONTEXT_S) * rate), int(ctx.end_s * rate))
     return Excerpt(excerpt(start, stop), start, rate, odf)

@@ -1,5 +1,4 @@
-"""Following a roll into the noise, and back to its first impact: a targeted search where the
-next (or previous) bounce must be.
+"""Following a roll into the noise: a targeted search where the next bounce must be.
 
 The first pass keeps only candidates that are significant against the whole recording
 (``z >= 5``): a threshold set for the number of frames in a file. Once a roll is tracked,
@@ -40,6 +39,10 @@ from drumroll.onsets.start import (
     law_prior,
     start_of_sound,
 )
+
+#: Predictive sd (of the bounces before) beyond which a sound found in a window is not
+#: that window's bounce.
+OFF_LAW = 4.0
 
 
 @dataclass(frozen=True)
@@ -103,7 +106,7 @@ def follow(roll: Roll, ex: Excerpt, p: FollowParams, stop_s: float) -> Roll:
         single = dt - (pred(n - 1)[0] if n > 1 else 0.0)
         if single < p.min_interval_s or roll.time_s[-1] + dt > stop_s:
             break
-        got = search(roll.time_s[-1], dt, s_log, p.false_alarm / n, after=True,
+        got = search(roll.time_s[-1], dt, s_log, p.false_alarm / n,
                      prior=law_prior(roll, int(roll.bounce[-1]) + n))
         if got is None:
             n += 1
@@ -115,28 +118,6 @@ def follow(roll: Roll, ex: Excerpt, p: FollowParams, stop_s: float) -> Roll:
                                r.sigma_s, r.level)
         n = 1
     return roll
-
-
-def extend_back(roll: Roll, ex: Excerpt, p: FollowParams) -> Roll:
-    """Look once for an impact before the roll's first onset, where its flights continued
-    back would put it (the first flight divided by the roll's ratio); prepend it and number
-    the roll from it if the window holds a significant sound."""
-    if len(roll) < 3 or not np.array_equal(roll.bounce[:3], roll.bounce[0] + np.arange(3)):
-        return roll
-    f1, f2 = np.diff(roll.time_s[:3])
-    ratio = f2 / f1
-    if not 0.0 < ratio < 1.0:
-        return roll
-    dt = f1 / ratio
-    s_log = math.hypot(p.ratio_jitter, 2.0 * math.hypot(roll.sigma_s[0], roll.sigma_s[1]) / f1)
-    if roll.time_s[0] - dt * (1 + p.width_sigmas * s_log) < ex.start / ex.sr:
-        return roll
-    got = _Search(ex, p, roll)(roll.time_s[0], dt, s_log, p.false_alarm, after=False)
-    if got is None:
-        return roll
-    time_s, r = got
-    return roll.with_onset(time_s, int(roll.bounce[0]) - 1, r.amplitude, r.snr_db,
-                           r.sigma_s, r.level).renumbered()
 
 
 class _Search:
@@ -151,22 +132,18 @@ class _Search:
         self.hop_s = ex.hop / ex.sr
 
     def __call__(self, t_from: float, dt: float, s_log: float, false_alarm: float, *,
-                 after: bool, prior: StartPrior | None = None
-                 ) -> tuple[float, Refined] | None:
-        """Test the window around ``t_from + dt`` (``after``) or ``t_from - dt``; the refined
-        onset if significant (moved to the start of its sound where it is later than
-        ``prior``, :func:`~.start.start_of_sound`), else None."""
+                 prior: StartPrior | None = None) -> tuple[float, Refined] | None:
+        """Test the window around ``t_from + dt``; the refined onset if significant (moved
+        to the start of its sound where it is later than ``prior``,
+        :func:`~.start.start_of_sound`), else None."""
         ex, p, hop_s = self.ex, self.p, self.hop_s
-        centre = t_from + dt if after else t_from - dt
+        centre = t_from + dt
         half = max(p.width_sigmas * s_log * dt, 2 * hop_s)
         lo_t, hi_t = centre - half, centre + half
         # Windows shorter than the flight, so the neighbouring bounce is not in the reference.
         pre = max(1, min(ex.odf.frames(ex.odf.pre_s, ex.sr), int(0.6 * dt / hop_s)))
         post = max(1, min(ex.odf.frames(ex.odf.post_s, ex.sr), int(0.3 * dt / hop_s)))
-        if after:
-            lo_t = max(lo_t, t_from + 2 * hop_s + post * hop_s)
-        else:
-            hi_t = min(hi_t, t_from - 2 * hop_s - pre * hop_s)
+        lo_t = max(lo_t, t_from + 2 * hop_s + post * hop_s)
         if hi_t <= lo_t:
             return None
         z = ex.z(pre, post)
@@ -199,6 +176,10 @@ class _Search:
         if r.snr_db < p.min_snr_db and not _resonant(r.sample / ex.sr, r, prior, p):
             return None  # there is a sound, but not one that can be timed
         r = start_of_sound(ex, r, dt, self.margin, prior)
+        if prior is not None and abs(r.sample / ex.sr - prior.mean_s) > OFF_LAW * prior.sd_s:
+            # Far from where the bounces before put this one: a sound that is not it, or
+            # the bounce timed where it cannot be told (the window counts as unheard).
+            return None
         return r.sample / ex.sr, r
 
 

@@ -180,12 +180,20 @@ def rise_evidence(ex: Excerpt, onset: int, reach: int, margin: float | None = No
     # measurement of it with sd s_m): a stage fainter than the background's scatter is
     # possible too, and costs only the prior mass of so faint a level.
     s_m = s * math.sqrt(temper / n_stage)
-    lo, hi = -shift / s_m, (_LEVEL_RANGE_DB - shift) / s_m
     log_bf = (0.5 * (shift / s_m) ** 2 + math.log(math.sqrt(2.0 * math.pi) * s_m
                                                   / _LEVEL_RANGE_DB)
-              + log_ndtr(hi) + np.log1p(-np.exp(np.minimum(log_ndtr(lo) - log_ndtr(hi), 0.0))
-                                        + 1e-300))
+              + _log_normal_mass(-shift / s_m, (_LEVEL_RANGE_DB - shift) / s_m))
     return ex.start + (end - n + j) * w, log_bf
+
+
+def _log_normal_mass(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """log(Φ(b) - Φ(a)) for a < b, without cancellation in either tail."""
+    # In the upper tail Φ(b) - Φ(a) = Φ(-a) - Φ(-b), whose logs are not both near 0.
+    upper = a > 0
+    hi = np.where(upper, log_ndtr(-a), log_ndtr(b))
+    lo = np.where(upper, log_ndtr(-b), log_ndtr(a))
+    with np.errstate(divide="ignore"):
+        return hi + np.log(-np.expm1(lo - hi))
 
 
 def start_of_sound(ex: Excerpt, r: Refined, flight: float | None, margin: float | None,
@@ -247,6 +255,20 @@ def time_at_start(roll: Roll, ex: Excerpt) -> Roll:
         if moved.sample != onset:
             out = _replaced(out, j, moved, sr)
     return out
+
+
+def on_course(roll: Roll, off: float) -> Roll:
+    """The roll without the onsets, after its third, that lie more than ``off`` predictive
+    sd from where the onsets before them put them (:func:`law_prior`): a sound that is not
+    that bounce, or the bounce timed where its start cannot be told. Bounce numbers are
+    kept, so a dropped onset is a gap."""
+    keep = np.ones(len(roll), dtype=bool)
+    for j in range(3, len(roll)):
+        kept = roll.subset(np.flatnonzero(keep[:j]))
+        prior = law_prior(kept, int(roll.bounce[j]))
+        if prior is not None and abs(roll.time_s[j] - prior.mean_s) > off * prior.sd_s:
+            keep[j] = False
+    return roll.subset(np.flatnonzero(keep))
 
 
 def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
