@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import json
 import math
-import textwrap
 import zlib
 
 import numpy as np
 import pytest
 from scipy import special, stats
 
+from configs import BALL_CONFIG
 from drumroll.cli.estimate import terminal_table
 from drumroll.cli.main import main
 from drumroll.inference.coordinates import SamplerCoordinates
@@ -40,18 +40,6 @@ from test_inference_speed_paths import _config, _points
 #: The simulated ball: α, t_B (s), timing jitter (s), onsets, the bounce left out.
 ALPHA, T_B, JITTER, N_ONSETS, GAP = 0.85, 0.40, 2e-4, 20, 8
 
-POWERLAW = textwrap.dedent("""\
-    model = "powerlaw"
-
-    [priors]
-    alpha = { dist = "uniform", low = 0.3, high = 1.0 }
-    t_b = { dist = "uniform", low = 0.05, high = 3.0 }
-    jitter_ms = { dist = "loguniform", low = 0.01, high = 10 }
-
-    [sampler]
-    evidence = false
-    workers = 1
-    """)
 
 
 def ball_times(n: int = N_ONSETS, seed: int = 0, start: float = 0.3) -> np.ndarray:
@@ -210,7 +198,7 @@ def fits(tmp_path_factory):
     up (an old-style CSV without the numbers, so the onsets are numbered 0 … N − 2)."""
     folder = tmp_path_factory.mktemp("gaps")
     config = folder / "ball.toml"
-    config.write_text(POWERLAW)
+    config.write_text(BALL_CONFIG)
     times = ball_times()
     bounces = np.arange(N_ONSETS)
     kept = bounces != GAP
@@ -308,7 +296,7 @@ def two_roll_csv(tmp_path_factory):
     rolls = np.repeat([0, 1], [6, 12])
     path = folder / "two.csv"
     path.write_text(table(times, bounce=bounces, roll=rolls).to_csv())
-    (folder / "ball.toml").write_text(POWERLAW)
+    (folder / "ball.toml").write_text(BALL_CONFIG)
     return path, folder / "ball.toml"
 
 

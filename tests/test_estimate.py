@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from configs import PAPER_STICK
+from configs import BALL_CONFIG, PAPER_STICK
 from drumroll.cli.main import estimate_main, main
 from drumroll.inference.evidence import Evidence
 from drumroll.inference.likelihood import OnsetData, gaussian_marginal
@@ -23,18 +23,6 @@ from drumroll.reporting.outputs import load_posteriors
 
 STICK = StickGeometry("cylinder-cone", 0.348, 0.060, 0.0075)
 
-BALL_CONFIG = textwrap.dedent("""\
-    model = "powerlaw"
-
-    [priors]
-    alpha = { dist = "uniform", low = 0.3, high = 1.0 }
-    t_b = { dist = "uniform", low = 0.05, high = 3.0 }
-    jitter_ms = { dist = "loguniform", low = 0.01, high = 10 }
-
-    [sampler]
-    evidence = false
-    workers = 1
-    """)
 
 
 def stick_config(compare: str, evidence: bool, height: float, sigma_h: float = 3.0) -> str:
