@@ -1,26 +1,32 @@
-"""Benchmark of ``estimate``: the README's main command, and the sampler against emcee's default.
+"""Benchmark of ``estimate``: the README's main command, this code against a named revision.
 
-1. Wall time of ``estimate data/table2_h80.flac --prior data/table2_h80.toml`` (exact
-   pendulum compared with small-angle and power law, evidences, every figure), run as a user
-   runs it, with the time split by stage from ``summary.json``.
-2. Effective samples of α per second: drumroll's sampler (differential-evolution moves, run to
-   R-hat < 1.01, ESS ≥ 400 and 50 τ) against emcee's default stretch move given the same number
-   of steps, side by side on the same posterior (bundled recording's onsets).
+1. Wall time of ``estimate data/table2_h80.flac --prior data/table2_h80.toml`` (exact pendulum
+   compared with small-angle and power law, evidences, every figure), run as a user runs it,
+   the working tree and the code of ``--against`` (default be26b5a, checked out into a
+   temporary git worktree: nothing is installed, no network) alternately, ``--repeats`` times
+   each. Prints both medians, their ratio, and each one's stages (start-up, sampling and
+   evidence per model, writing), and α's effective samples and ESS per second.
+2. Effective samples of α per second: drumroll's sampler against emcee's default stretch move
+   given the same number of steps, side by side on the same posterior.
 
-Run: ``python benchmarks/estimate.py [--source data/table2_h80.flac] [--repeats 3]``.
+Run: ``python benchmarks/estimate.py [--against REV] [--repeats 3] [--source data/table2_h80.flac]
+[--skip-main] [--skip-peer]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
+import statistics
 import subprocess
 import sys
 import tempfile
 import time
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import arviz as az
@@ -35,41 +41,81 @@ from drumroll.inference.settings import estimate_settings
 from drumroll.pipeline import choose_roll, load_onsets
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The code the speed targets are measured against.
+BASELINE = "be26b5a"
 
 
-def main_command(source: Path, config: Path, repeats: int) -> None:
-    """Run the README's main command ``repeats`` times; print the median wall time and the
-    stages of that run (start-up = imports and config; the rest from the progress lines and
-    ``summary.json``)."""
-    runs = []
-    for _ in range(repeats):
-        with tempfile.TemporaryDirectory() as tmp:
-            out = Path(tmp) / "out"
-            command = ["estimate", str(source), "--prior", str(config), "--out", str(out)]
-            started = time.perf_counter()
-            proc = subprocess.run(command, capture_output=True, text=True, check=False)
-            wall = time.perf_counter() - started
-            if proc.returncode != 0:
-                print(f"main command failed ({proc.returncode}): {proc.stderr.strip()}")
-                return
-            summary = json.loads((out / "summary.json").read_text())
-            stages = dict(re.findall(r"^(estimating|writing) .*: done in ([\d.]+) s$",
-                                     proc.stderr, flags=re.MULTILINE))
-            runs.append((wall, summary, {k: float(v) for k, v in stages.items()}))
-    runs.sort(key=lambda run: run[0])
-    wall, summary, stages = runs[len(runs) // 2]
-    print(f"main command: {' '.join(command[:4])} … on {os.cpu_count()} cores")
-    print(f"  wall time {wall:.1f} s, median of {repeats} "
-          f"(all: {', '.join(f'{r[0]:.1f}' for r in runs)} s; goal ≤ 20 s)")
-    startup = wall - stages.get("estimating", 0.0) - stages.get("writing", 0.0)
-    print(f"  {'start-up (imports)':<24} {startup:6.1f} s")
-    print(f"  {'estimating':<24} {stages.get('estimating', float('nan')):6.1f} s, of which")
-    for stage, seconds in summary["seconds"].items():
-        print(f"    {stage:<22} {seconds:6.1f} s")
-    print(f"  {'writing (figures, nc)':<24} {stages.get('writing', float('nan')):6.1f} s")
+@contextlib.contextmanager
+def worktree(revision: str) -> Iterator[Path]:
+    """The code of ``revision`` checked out into a temporary git worktree (removed after)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "tree"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "--quiet",
+                        str(path), revision], check=True)
+        try:
+            yield path
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                            str(path)], check=False)
+
+
+def run_once(src: Path, source: Path, config: Path) -> dict:
+    """One run of the main command with the package at ``src``: wall time, the stages the
+    progress lines and ``summary.json`` give, and α's summary."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out"
+        env = {**os.environ, "PYTHONPATH": str(src)}
+        command = [sys.executable, "-m", "drumroll", "estimate", str(source), "--prior",
+                   str(config), "-o", str(out)]
+        started = time.perf_counter()
+        proc = subprocess.run(command, capture_output=True, text=True, check=False, env=env)
+        wall = time.perf_counter() - started
+        if proc.returncode != 0:
+            raise RuntimeError(f"main command failed ({proc.returncode}) with {src}: "
+                               f"{proc.stderr.strip()[-300:]}")
+        summary = json.loads((out / "summary.json").read_text())
+    done = dict(re.findall(r"^(estimating|writing) .*: done in ([\d.]+) s$", proc.stderr,
+                           flags=re.MULTILINE))
+    stages = {"start-up": wall - sum(float(v) for v in done.values())}
+    stages.update({f"{k} ({'fit' if k == 'estimating' else 'outputs'})": float(v)
+                   for k, v in done.items()})
+    stages.update({f"  {k}": float(v) for k, v in summary.get("seconds", {}).items()})
     alpha = summary["parameters"]["alpha"]
-    print(f"  α = {alpha['mean']:.4f} ± {alpha['sd']:.4f}, ESS bulk {alpha['ess_bulk']:.0f}, "
-          f"R-hat {alpha['r_hat']:.3f}; preferred: {summary['preferred']}")
+    return {"wall": wall, "stages": stages, "alpha": alpha, "preferred": summary["preferred"]}
+
+
+def main_command(source: Path, config: Path, repeats: int, against: str) -> None:
+    """The main command, this tree and ``against`` alternately; medians and their ratio."""
+    runs: dict[str, list[dict]] = {"this tree": [], against: []}
+    with worktree(against) as old:
+        trees = {"this tree": ROOT / "src", against: old / "src"}
+        for _ in range(repeats):
+            for label, src in trees.items():
+                runs[label].append(run_once(src, source, config))
+    print(f"main command: estimate {source.relative_to(ROOT)} --prior "
+          f"{config.relative_to(ROOT)}, {repeats} runs each, alternating, {os.cpu_count()} "
+          "cores")
+    medians = {label: statistics.median(r["wall"] for r in rs) for label, rs in runs.items()}
+    for label, rs in runs.items():
+        walls = ", ".join(f"{r['wall']:.1f}" for r in rs)
+        print(f"  {label:>12}: median {medians[label]:5.1f} s wall (runs: {walls})")
+    ratio = medians["this tree"] / medians[against]
+    print(f"  ratio this tree / {against}: {ratio:.2f} (goal <= 0.33)")
+    print(f"\n  stages of the median run (s)      {'this tree':>10} {against:>10}")
+    middle = {label: sorted(rs, key=lambda r: r["wall"])[len(rs) // 2]
+              for label, rs in runs.items()}
+    keys = list(dict.fromkeys(k for r in middle.values() for k in r["stages"]))
+    for key in keys:
+        cells = [middle[label]["stages"].get(key) for label in runs]
+        print(f"  {key:<32} " + " ".join(f"{c:10.2f}" if c is not None else f"{'':>10}"
+                                        for c in cells))
+    print()
+    for label, r in middle.items():
+        a = r["alpha"]
+        ess_per_s = a["ess_bulk"] / r["wall"]
+        print(f"  {label:>12}: α = {a['mean']:.5f} ± {a['sd']:.5f}, ESS bulk {a['ess_bulk']:.0f}"
+              f", tail {a.get('ess_tail', float('nan')):.0f}, R-hat {a['r_hat']:.4f}; "
+              f"{ess_per_s:.0f} ESS(α) per second of wall time; preferred {r['preferred']}")
 
 
 def ess_alpha(chain: np.ndarray) -> float:
@@ -116,13 +162,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--source", type=Path, default=ROOT / "data" / "table2_h80.flac")
     parser.add_argument("--config", type=Path, default=None)
+    parser.add_argument("--against", default=BASELINE,
+                        help=f"git revision to compare with (default {BASELINE})")
     parser.add_argument("--skip-main", action="store_true")
-    parser.add_argument("--repeats", type=int, default=3, help="runs of the main command")
+    parser.add_argument("--skip-peer", action="store_true")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each version")
     args = parser.parse_args()
-    config = args.config or args.source.with_suffix(".toml")
+    source = args.source.resolve()
+    config = (args.config or args.source.with_suffix(".toml")).resolve()
     if not args.skip_main:
-        main_command(args.source, config, args.repeats)
-    sampler_peer(args.source, config)
+        main_command(source, config, args.repeats, args.against)
+    if not args.skip_peer:
+        sampler_peer(source, config)
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.space import ParameterSpace
-from drumroll.physics.geometry import mass_properties_squared
+from drumroll.physics.release import swing
 
 
 @dataclass(frozen=True)
@@ -55,22 +55,22 @@ class SamplerCoordinates:
         object.__setattr__(self, "_t0", t0)
 
     def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """γ, L − d, ω0 and θ0 per row (only the columns other than h are used)."""
+        """γ, L − d, ω0 and θ0 per row (only the columns other than h are used; h is given
+        a placeholder, since q, not h, is what the rows hold)."""
         space = self.space
-        v = space._value
-        d, l1 = v(x, "pivot"), v(x, "stick_length")
-        total_length, centre_of_mass, k_o_squared = mass_properties_squared(
-            space.config.stick.shape, l1, v(x, "stick_tip"), v(x, "stick_radius"), d)
-        gamma = space.config.gravity * (centre_of_mass - d) / k_o_squared
-        arm = total_length - d
+        v = space.value
+        theta0 = v(x, "release_angle") * np.ones(x.shape[0])
+        _, (gamma, arm, _, omega0) = swing(
+            space.config.stick.shape, v(x, "stick_length"), v(x, "stick_tip"),
+            v(x, "stick_radius"), v(x, "pivot"), 0.0, v(x, "release_speed"), theta0,
+            space.config.gravity)
         ones = np.ones(x.shape[0])
-        return gamma * ones, arm * ones, v(x, "release_speed") / arm * ones, \
-            v(x, "release_angle") * ones
+        return gamma * ones, arm * ones, omega0 * ones, theta0
 
     def _t0_centre(self, x: NDArray, impacts: NDArray) -> tuple[NDArray, NDArray]:
         """T̂0 and its standard error s per row, given the rows' impact times τ_0 … τ_K."""
         data = self.data
-        jitter = self.space._value(x, "jitter")
+        jitter = self.space.value(x, "jitter")
         weight = 1.0 / (np.reshape(jitter, (-1, 1)) ** 2 + data.sigmas**2)
         sum_w = weight.sum(axis=1)
         residual = data.times - data.at_onsets(impacts)
@@ -166,25 +166,14 @@ class SamplerCoordinates:
         return x, log_det + math.log(float(scale[0])), impacts
 
     def _height_from_q_one(self, row: list[float]) -> float | None:
-        """Replace q by h in ``row`` (in place); log |∂h/∂q|, or ``None`` where q is invalid."""
-        space = self.space
-        value = space.value_of(row)
-        stick = space.stick_one(value)
-        if stick is None:
+        """Replace q by h in ``row`` (in place); log |∂h/∂q|, or ``None`` where q is invalid
+        (the batch map on one row: the formulas are written once)."""
+        z = np.asarray([row], float)
+        x, log_det = z.copy(), np.zeros(1)
+        with np.errstate(all="ignore"):
+            self._height_from_q(z, x, log_det)
+        h = float(x[0, self._height])
+        if not (math.isfinite(h) and math.isfinite(float(log_det[0]))):
             return None
-        total_length, centre_of_mass, k_o_squared = stick
-        d, q = value("pivot"), row[self._height]
-        gamma = space.config.gravity * (centre_of_mass - d) / k_o_squared
-        arm = total_length - d
-        omega0, theta0 = value("release_speed") / arm, value("release_angle")
-        theta_c = theta0 + (gamma * gamma * q * q - omega0 * omega0) / (2.0 * gamma)
-        if not (q > 0.0 and gamma > 0.0 and arm > 0.0 and gamma * q > omega0
-                and theta_c > 0.0):
-            return None
-        if space.model == "pendulum":
-            if not theta_c < 0.5 * math.pi:
-                return None
-            row[self._height] = arm * math.sin(theta_c)
-            return math.log(arm * math.cos(theta_c) * gamma * q)
-        row[self._height] = arm * theta_c
-        return math.log(arm * gamma * q)
+        row[self._height] = h
+        return float(log_det[0])

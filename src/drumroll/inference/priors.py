@@ -6,6 +6,11 @@ with the family's own support) and offers what the samplers need, vectorised and
 :meth:`Prior.ppf` (the unit-cube transform of nested sampling) and :meth:`Prior.sample`
 (Monte Carlo propagation, starting points). :meth:`Prior.scaled` converts units
 (millimetres to metres) at the config boundary.
+
+Each family's density, CDF and quantile function are written once, as static kernels that
+take the family's parameters as arguments (:attr:`Truncated.params` names them): a prior
+calls them with its own parameters, and :class:`~drumroll.inference.prior_table.PriorTable`
+calls them once per family with the parameters of all its columns as vectors.
 """
 
 from __future__ import annotations
@@ -85,12 +90,20 @@ class Fixed(Prior):
 class Truncated(Prior):
     """A continuous family truncated to ``[lower, upper]``.
 
-    Subclasses give the family's log density, CDF and quantile function; this class adds the
-    truncation, whose normalising mass is computed once.
+    Subclasses give the family's log density, CDF and quantile function as static kernels of
+    the family's parameters (:meth:`density`, :meth:`cdf`, :meth:`quantile`, with
+    :attr:`params` naming those parameters in order); this class adds the truncation, whose
+    normalising mass is computed once.
     """
 
     lower: float = -math.inf
     upper: float = math.inf
+
+    #: The family's parameters, in the order its kernels take them.
+    params: tuple[str, ...] = field(default=(), init=False, repr=False)
+
+    #: Whether the density is the same everywhere inside the support (evaluated once).
+    flat: bool = field(default=False, init=False, repr=False)
 
     #: The family's own support, before truncation.
     natural_support: tuple[float, float] = field(default=(-math.inf, math.inf), init=False,
@@ -114,17 +127,42 @@ class Truncated(Prior):
         """Probability of the untruncated family inside ``[lower, upper]``."""
         return self._mass
 
+    @staticmethod
     @abstractmethod
-    def _logpdf(self, x: NDArray) -> NDArray: ...
+    def density(x: NDArray, *params: ArrayLike) -> NDArray:
+        """The family's log density (untruncated) at ``x`` inside its support."""
 
+    @staticmethod
     @abstractmethod
-    def _cdf(self, x: ArrayLike) -> NDArray: ...
+    def cdf(x: ArrayLike, *params: ArrayLike) -> NDArray:
+        """The family's CDF (untruncated)."""
 
+    @staticmethod
     @abstractmethod
-    def _ppf(self, q: NDArray) -> NDArray: ...
+    def quantile(q: NDArray, *params: ArrayLike) -> NDArray:
+        """The family's quantile function (untruncated)."""
 
     @abstractmethod
     def _scaled_params(self, factor: float) -> dict[str, float]: ...
+
+    @property
+    def param_values(self) -> tuple[float, ...]:
+        """This prior's values of :attr:`params`."""
+        return tuple(getattr(self, name) for name in self.params)
+
+    @property
+    def log_mass(self) -> float:
+        """log of :attr:`mass`: the truncation's normalising constant."""
+        return self._log_mass
+
+    def _logpdf(self, x: NDArray) -> NDArray:
+        return self.density(x, *self.param_values)
+
+    def _cdf(self, x: ArrayLike) -> NDArray:
+        return self.cdf(x, *self.param_values)
+
+    def _ppf(self, q: NDArray) -> NDArray:
+        return self.quantile(q, *self.param_values)
 
     def logpdf(self, x: ArrayLike) -> NDArray:
         x = np.asarray(x, float)
@@ -161,17 +199,22 @@ class Uniform(Truncated):
     high: float = 1.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "params", ("low", "high"))
+        object.__setattr__(self, "flat", type(self) is Uniform)
         object.__setattr__(self, "natural_support", (self.low, self.high))
         super().__post_init__()
 
-    def _logpdf(self, x):
-        return np.full(np.shape(x), -math.log(self.high - self.low))
+    @staticmethod
+    def density(x, low, high):
+        return -np.log(high - low) + np.zeros_like(x)
 
-    def _cdf(self, x):
-        return np.clip((np.asarray(x, float) - self.low) / (self.high - self.low), 0.0, 1.0)
+    @staticmethod
+    def cdf(x, low, high):
+        return np.clip((np.asarray(x, float) - low) / (high - low), 0.0, 1.0)
 
-    def _ppf(self, q):
-        return self.low + q * (self.high - self.low)
+    @staticmethod
+    def quantile(q, low, high):
+        return low + q * (high - low)
 
     def _scaled_params(self, factor):
         return {"low": self.low * factor, "high": self.high * factor}
@@ -184,15 +227,18 @@ class Uniform(Truncated):
 class LogUniform(Uniform):
     """Uniform in log x on [low, high] (0 < low < high): scale-free, for jitter and the like."""
 
-    def _logpdf(self, x):
-        return -np.log(x) - math.log(math.log(self.high / self.low))
+    @staticmethod
+    def density(x, low, high):
+        return -np.log(x) - np.log(np.log(high / low))
 
-    def _cdf(self, x):
-        x = np.clip(np.asarray(x, float), self.low, self.high)
-        return np.log(x / self.low) / math.log(self.high / self.low)
+    @staticmethod
+    def cdf(x, low, high):
+        x = np.clip(np.asarray(x, float), low, high)
+        return np.log(x / low) / np.log(high / low)
 
-    def _ppf(self, q):
-        return self.low * (self.high / self.low) ** q
+    @staticmethod
+    def quantile(q, low, high):
+        return low * (high / low) ** q
 
     def describe(self) -> str:
         return f"loguniform(low={self.low:g}, high={self.high:g})"
@@ -205,15 +251,22 @@ class Normal(Truncated):
     mu: float = 0.0
     sigma: float = 1.0
 
-    def _logpdf(self, x):
-        z = (x - self.mu) / self.sigma
-        return -0.5 * z * z - math.log(self.sigma) - _LOG_SQRT_2PI
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "params", ("mu", "sigma"))
+        super().__post_init__()
 
-    def _cdf(self, x):
-        return special.ndtr((np.asarray(x, float) - self.mu) / self.sigma)
+    @staticmethod
+    def density(x, mu, sigma):
+        z = (x - mu) / sigma
+        return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI
 
-    def _ppf(self, q):
-        return self.mu + self.sigma * special.ndtri(q)
+    @staticmethod
+    def cdf(x, mu, sigma):
+        return special.ndtr((np.asarray(x, float) - mu) / sigma)
+
+    @staticmethod
+    def quantile(q, mu, sigma):
+        return mu + sigma * special.ndtri(q)
 
     def _scaled_params(self, factor):
         return {"mu": self.mu * factor, "sigma": self.sigma * factor}
@@ -229,18 +282,22 @@ class HalfNormal(Truncated):
     sigma: float = 1.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "params", ("sigma",))
         object.__setattr__(self, "natural_support", (0.0, math.inf))
         super().__post_init__()
 
-    def _logpdf(self, x):
-        z = x / self.sigma
-        return -0.5 * z * z - math.log(self.sigma) - _LOG_SQRT_2PI + math.log(2.0)
+    @staticmethod
+    def density(x, sigma):
+        z = x / sigma
+        return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI + math.log(2.0)
 
-    def _cdf(self, x):
-        return 2.0 * special.ndtr(np.maximum(np.asarray(x, float), 0.0) / self.sigma) - 1.0
+    @staticmethod
+    def cdf(x, sigma):
+        return 2.0 * special.ndtr(np.maximum(np.asarray(x, float), 0.0) / sigma) - 1.0
 
-    def _ppf(self, q):
-        return self.sigma * special.ndtri(0.5 * (1.0 + q))
+    @staticmethod
+    def quantile(q, sigma):
+        return sigma * special.ndtri(0.5 * (1.0 + q))
 
     def _scaled_params(self, factor):
         return {"sigma": self.sigma * factor}
@@ -257,21 +314,25 @@ class LogNormal(Truncated):
     sigma: float = 1.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "params", ("mu", "sigma"))
         object.__setattr__(self, "natural_support", (0.0, math.inf))
         super().__post_init__()
 
-    def _logpdf(self, x):
+    @staticmethod
+    def density(x, mu, sigma):
         log_x = np.log(x)
-        z = (log_x - self.mu) / self.sigma
-        return -0.5 * z * z - math.log(self.sigma) - _LOG_SQRT_2PI - log_x
+        z = (log_x - mu) / sigma
+        return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI - log_x
 
-    def _cdf(self, x):
+    @staticmethod
+    def cdf(x, mu, sigma):
         x = np.asarray(x, float)
         with np.errstate(divide="ignore"):
-            return special.ndtr((np.log(np.maximum(x, 0.0)) - self.mu) / self.sigma)
+            return special.ndtr((np.log(np.maximum(x, 0.0)) - mu) / sigma)
 
-    def _ppf(self, q):
-        return np.exp(self.mu + self.sigma * special.ndtri(q))
+    @staticmethod
+    def quantile(q, mu, sigma):
+        return np.exp(mu + sigma * special.ndtri(q))
 
     def _scaled_params(self, factor):
         return {"mu": self.mu + math.log(factor)}
@@ -290,23 +351,28 @@ class Beta(Truncated):
     high: float = 1.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "params", ("a", "b", "low", "high"))
         object.__setattr__(self, "natural_support", (self.low, self.high))
         super().__post_init__()
 
-    def _unit(self, x):
-        return np.clip((np.asarray(x, float) - self.low) / (self.high - self.low), 0.0, 1.0)
+    @staticmethod
+    def _unit(x, low, high):
+        return np.clip((np.asarray(x, float) - low) / (high - low), 0.0, 1.0)
 
-    def _logpdf(self, x):
-        y = self._unit(x)
+    @staticmethod
+    def density(x, a, b, low, high):
+        y = Beta._unit(x, low, high)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return (special.xlogy(self.a - 1.0, y) + special.xlog1py(self.b - 1.0, -y)
-                    - special.betaln(self.a, self.b) - math.log(self.high - self.low))
+            return (special.xlogy(a - 1.0, y) + special.xlog1py(b - 1.0, -y)
+                    - special.betaln(a, b) - np.log(high - low))
 
-    def _cdf(self, x):
-        return special.betainc(self.a, self.b, self._unit(x))
+    @staticmethod
+    def cdf(x, a, b, low, high):
+        return special.betainc(a, b, Beta._unit(x, low, high))
 
-    def _ppf(self, q):
-        return self.low + (self.high - self.low) * special.betaincinv(self.a, self.b, q)
+    @staticmethod
+    def quantile(q, a, b, low, high):
+        return low + (high - low) * special.betaincinv(a, b, q)
 
     def _scaled_params(self, factor):
         return {"low": self.low * factor, "high": self.high * factor}

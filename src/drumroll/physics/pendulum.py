@@ -30,7 +30,10 @@ from drumroll.physics.bounces import (
     masked_bounces,
     safe_alpha,
 )
-from drumroll.physics.release import Release
+from drumroll.physics.geometry import StickGeometry
+from drumroll.physics.model import ForwardModel, Values, alpha_of, alpha_valid
+from drumroll.physics.release import passes, prepare_release, swing
+from drumroll.physics.small_angle import PENDULUM_PARAMETERS
 
 
 def _phase_from_turning_point(excess: NDArray, s: NDArray, one_minus_s: NDArray, m: NDArray,
@@ -58,65 +61,112 @@ def _phase_over_the_top(half_psi: NDArray, excess: NDArray, one_minus_s: NDArray
     return np.sin(half_psi) * elliprf(one_minus_s, excess / m, 1.0)
 
 
-def pendulum_bounces(release: Release, n_flights: int) -> Bounces:
-    """Bounce sequences of the exact pendulum (closed form; physics.md).
-
-    Parameters
-    ----------
-    release
-        The prepared set-up (:func:`~drumroll.physics.release.prepare_release`).
-    n_flights
-        Number N of flights to return.
+def contact(theta0: NDArray, theta_c: NDArray, omega0: NDArray, gamma: NDArray
+            ) -> tuple[NDArray, ...]:
+    """The fall's end points in the pendulum's energy variables.
 
     Returns
     -------
-    Bounces
-        t_C from the release (θ0, ω0) to θ_C, including a fall with m0 > 1 (enough energy to
-        pass over the top); ω_C from energy conservation (eq. 4 when θ0 = ω0 = 0); flights
-        T_k = 2 F(χ_k | m_k) / √γ with m_k = s_C + α^{2k} (m0 − s_C). A point where a flight
-        would have m_k ≥ 1 (over the top, never to return) is invalid; t_B is ``inf`` when
-        only the fully elastic first rebound would pass over the top.
+    half_psi_0, half_psi_c, s_0, c_0, s_c, c_c, release_excess, contact_excess
+        ψ/2 = π/4 − θ/2 at release and at contact, s = sin²(ψ/2) and c = cos²(ψ/2) there, and
+        the kinetic excesses ψ̇² / (4γ) at release and at contact (ω_C² / (4γ)).
     """
-    r = release
-    theta_c = np.arcsin(r.sin_theta_c)
-    reason = np.where((r.reason == OK) & ~(r.theta0 < theta_c),
-                      np.int8(RELEASED_BELOW_CONTACT), r.reason)
-    root_gamma = np.sqrt(r.gamma)
-    half_psi_0 = 0.25 * np.pi - 0.5 * r.theta0
+    half_psi_0 = 0.25 * np.pi - 0.5 * theta0
     half_psi_c = 0.25 * np.pi - 0.5 * theta_c
     s_0, c_0 = np.sin(half_psi_0) ** 2, np.cos(half_psi_0) ** 2
     s_c, c_c = np.sin(half_psi_c) ** 2, np.cos(half_psi_c) ** 2
-    release_excess = r.omega0**2 / (4.0 * r.gamma)
+    release_excess = omega0**2 / (4.0 * gamma)
     drop = np.sin(half_psi_0 - half_psi_c) * np.sin(half_psi_0 + half_psi_c)  # s_0 − s_c
     contact_excess = np.maximum(drop, 0.0) + release_excess  # ω_C² / (4γ)
-    m_0 = s_0 + release_excess
-    one_minus_m0 = c_0 - release_excess
+    return half_psi_0, half_psi_c, s_0, c_0, s_c, c_c, release_excess, contact_excess
 
-    # Fall: below the top (m0 < 1) both ends are timed from the turning point; above it the
-    # modulus is inverted and the amplitude is ψ/2 itself.
-    libration = one_minus_m0 > 0.0
-    m_lib = np.where(libration, m_0, 0.5)
-    q_lib = np.where(libration, one_minus_m0, 0.5)
-    fall_libration = (_phase_from_turning_point(contact_excess, s_c, c_c, m_lib, q_lib)
-                      - _phase_from_turning_point(release_excess, s_0, c_0, m_lib, q_lib))
-    m_rot = np.where(libration, 1.0, m_0)
-    fall_rotation = ((_phase_over_the_top(half_psi_0, release_excess, c_0, m_rot)
-                      - _phase_over_the_top(half_psi_c, contact_excess, c_c, m_rot))
-                     / np.sqrt(m_rot))
-    t_c = np.where(libration, fall_libration, fall_rotation) / root_gamma
-    omega_c = 2.0 * root_gamma * np.sqrt(contact_excess)
 
-    # Flights k = 0 … N; k = 0 (full contact speed) is t_B, the N = 0 term of eq. 11.
-    k = np.arange(n_flights + 1)
-    excess = contact_excess[:, None] * safe_alpha(r.alpha, reason)[:, None] ** (2 * k)
-    m_k = s_c[:, None] + excess
-    returns = c_c[:, None] - excess > 0.0  # m_k < 1
-    m_safe = np.where(returns, m_k, 0.5)
-    sin2_chi = np.clip(excess / (m_safe * c_c[:, None]), 0.0, 1.0)
-    phase = ellipkinc(np.arcsin(np.sqrt(sin2_chi)), m_safe)
-    all_flights = np.where(returns, 2.0 * phase / root_gamma[:, None], np.inf)
-    reason = np.where((reason == OK) & ~returns[:, 1:].all(axis=1), np.int8(OVER_THE_TOP),
-                      reason)
-    return masked_bounces(reason, alpha=r.alpha, flights=all_flights[:, 1:], t_c=t_c,
-                          t_b=all_flights[:, 0], theta_c=theta_c, omega_c=omega_c,
-                          tip_speed_c=omega_c * r.arm)
+def flight_phase(excess: NDArray, m: NDArray, c_c: NDArray) -> NDArray:
+    """F(χ | m) = K(m) − F(φ_C | m) of a flight leaving the head with kinetic excess
+    ``excess`` (ψ̇²/(4γ)) at energy ``m``: sin²χ = excess / (m cos²(ψ_C/2)). T = 2 F / √γ."""
+    sin2_chi = np.minimum(excess / (m * c_c), 1.0)
+    return ellipkinc(np.arcsin(np.sqrt(sin2_chi)), m)
+
+
+def flight_times(excess: NDArray, s_c: NDArray, c_c: NDArray, gamma: NDArray
+                 ) -> tuple[NDArray, NDArray]:
+    """Flights that leave the head with kinetic excess ``excess`` (ω_k² / (4γ), shape
+    ``(batch, n)``): T = 2 F(χ | m) / √γ with m = s_C + excess, and where they return
+    (m < 1; elsewhere the flight goes over the top and its time is a finite placeholder)."""
+    returns = c_c[:, None] - excess > 0.0  # m < 1
+    m = np.where(returns, s_c[:, None] + excess, 0.5)
+    phase = flight_phase(np.where(returns, excess, 0.0), m, c_c[:, None])
+    return 2.0 * phase / np.sqrt(gamma)[:, None], returns
+
+
+class Pendulum(ForwardModel):
+    """The exact pendulum in closed form (module docstring).
+
+    t_C from the release (θ0, ω0) to θ_C, including a fall with m0 > 1 (enough energy to pass
+    over the top); ω_C from energy conservation (eq. 4 when θ0 = ω0 = 0); flights
+    T_k = 2 F(χ_k | m_k) / √γ with m_k = s_C + α^{2k} (m0 − s_C). A point where a flight would
+    have m_k ≥ 1 (over the top, never to return) is invalid; t_B is ``inf`` when only the
+    fully elastic first rebound would pass over the top.
+    """
+
+    name = "pendulum"
+    parameters = PENDULUM_PARAMETERS
+    needs_stick = True
+
+    def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,
+                g: float = 9.81) -> tuple[NDArray, NDArray]:
+        alpha, theta0 = alpha_of(values), values["release_angle"]
+        checks, (gamma, _, sin_theta_c, omega0) = swing(
+            stick_shape, values["stick_length"], values["stick_tip"], values["stick_radius"],
+            values["pivot"], values["height"], values["release_speed"], theta0, g)
+        if np.ndim(gamma) == 0:  # every geometric parameter fixed
+            gamma, sin_theta_c, omega0 = (np.full(alpha.shape, v)
+                                          for v in (gamma, sin_theta_c, omega0))
+        with np.errstate(all="ignore"):
+            theta_c = np.arcsin(sin_theta_c)
+            valid = passes(checks, np.isfinite(alpha) & alpha_valid(alpha) & (theta0 < theta_c))
+            *_, s_c, c_c, _, contact_excess = contact(theta0, theta_c, omega0, gamma)
+            k = np.arange(1.0, n_flights + 1.0)
+            excess = contact_excess[:, None] * alpha[:, None] ** (2.0 * k)
+            if n_flights:  # α ≤ 1: the first flight rises highest, so it alone can go over
+                valid &= c_c - excess[:, 0] > 0.0
+            phase = flight_phase(excess, s_c[:, None] + excess, c_c[:, None])
+            return phase * (2.0 / np.sqrt(gamma))[:, None], valid
+
+    def bounces(self, values: Values, n_flights: int, stick: StickGeometry | None = None,
+                g: float = 9.81) -> Bounces:
+        r = prepare_release(values["alpha"], values["pivot"], values["height"], stick,
+                            values["release_speed"], values["release_angle"], g)
+        theta_c = np.arcsin(r.sin_theta_c)
+        reason = np.where((r.reason == OK) & ~(r.theta0 < theta_c),
+                          np.int8(RELEASED_BELOW_CONTACT), r.reason)
+        root_gamma = np.sqrt(r.gamma)
+        (half_psi_0, half_psi_c, s_0, c_0, s_c, c_c, release_excess,
+         contact_excess) = contact(r.theta0, theta_c, r.omega0, r.gamma)
+        m_0 = s_0 + release_excess
+        one_minus_m0 = c_0 - release_excess
+
+        # Fall: below the top (m0 < 1) both ends are timed from the turning point; above it
+        # the modulus is inverted and the amplitude is ψ/2 itself.
+        libration = one_minus_m0 > 0.0
+        m_lib = np.where(libration, m_0, 0.5)
+        q_lib = np.where(libration, one_minus_m0, 0.5)
+        fall_libration = (_phase_from_turning_point(contact_excess, s_c, c_c, m_lib, q_lib)
+                          - _phase_from_turning_point(release_excess, s_0, c_0, m_lib, q_lib))
+        m_rot = np.where(libration, 1.0, m_0)
+        fall_rotation = ((_phase_over_the_top(half_psi_0, release_excess, c_0, m_rot)
+                          - _phase_over_the_top(half_psi_c, contact_excess, c_c, m_rot))
+                         / np.sqrt(m_rot))
+        t_c = np.where(libration, fall_libration, fall_rotation) / root_gamma
+        omega_c = 2.0 * root_gamma * np.sqrt(contact_excess)
+
+        # Flights k = 0 … N; k = 0 (full contact speed) is t_B, the N = 0 term of eq. 11.
+        k = np.arange(n_flights + 1)
+        excess = contact_excess[:, None] * safe_alpha(r.alpha, reason)[:, None] ** (2 * k)
+        times, returns = flight_times(excess, s_c, c_c, r.gamma)
+        all_flights = np.where(returns, times, np.inf)
+        reason = np.where((reason == OK) & ~returns[:, 1:].all(axis=1),
+                          np.int8(OVER_THE_TOP), reason)
+        return masked_bounces(reason, alpha=r.alpha, flights=all_flights[:, 1:], t_c=t_c,
+                              t_b=all_flights[:, 0], theta_c=theta_c, omega_c=omega_c,
+                              tip_speed_c=omega_c * r.arm)

@@ -18,7 +18,7 @@ from drumroll.physics.bounces import (
     TIP_CANNOT_REACH,
     first_failure,
 )
-from drumroll.physics.geometry import StickGeometry
+from drumroll.physics.geometry import STICK_SHAPES, StickGeometry, mass_properties_squared
 
 #: Standard gravity (m/s²), used unless the config gives another value.
 STANDARD_GRAVITY = 9.81
@@ -52,6 +52,59 @@ class Release:
     theta0: NDArray
     omega0: NDArray
     reason: NDArray[np.int8]
+
+
+def swing(shape: str, length: ArrayLike, tip: ArrayLike, radius: ArrayLike, pivot: ArrayLike,
+          height: ArrayLike, release_speed: ArrayLike, release_angle: ArrayLike,
+          g: float = STANDARD_GRAVITY) -> tuple[tuple[tuple[int, NDArray], ...], tuple]:
+    """The set-up's checks, and γ, the arm and sin θ_C: the one place they are computed.
+
+    Every pendulum path starts here: :func:`prepare_release` (the public forward models, with
+    a reason per failure) and the sampler's kernels (one validity mask). Nothing is
+    broadcast or masked: the arguments are arrays of one batch shape or scalars, and where a
+    check fails the other values are garbage.
+
+    Parameters
+    ----------
+    shape, length, tip, radius
+        The stick (:func:`~drumroll.physics.geometry.mass_properties_squared`).
+    pivot, height, release_speed, release_angle
+        d, h (m), the release tip speed (m/s) and angle (rad).
+    g
+        Gravitational acceleration (m/s²).
+
+    Returns
+    -------
+    checks, (gamma, arm, sin_theta_c, omega0)
+        ``checks`` pairs each reason code of :data:`~drumroll.physics.bounces.REASONS` with
+        where the set-up passes it (the first failed one is the reason). γ = g (l_C − d) / K_O²
+        (eq. 6), the arm L − d, sin θ_C = h / (L − d) and ω0 = release speed / arm.
+    """
+    with np.errstate(all="ignore"):  # invalid points are flagged by the checks
+        pivot, height, release_speed, release_angle = (
+            np.asarray(v, float) for v in (pivot, height, release_speed, release_angle))
+        total_length, centre_of_mass, k_o_squared = mass_properties_squared(
+            shape, length, tip, radius, pivot)
+        arm = total_length - pivot
+        checks = (
+            (NOT_FINITE, np.isfinite(pivot + height + release_speed + release_angle
+                                     + total_length + centre_of_mass + k_o_squared)),
+            (PIVOT_OFF_STICK, pivot >= 0),
+            (PIVOT_PAST_CM, pivot < centre_of_mass),
+            (HEIGHT_NOT_POSITIVE, height > 0),
+            (TIP_CANNOT_REACH, height < arm),
+            (BAD_RELEASE_ANGLE, np.abs(release_angle) < 0.5 * np.pi),
+            (NEGATIVE_RELEASE_SPEED, release_speed >= 0),
+        )
+        gamma = g * (centre_of_mass - pivot) / k_o_squared
+        return checks, (gamma, arm, height / arm, release_speed / arm)
+
+
+def passes(checks: tuple[tuple[int, NDArray], ...], valid: NDArray) -> NDArray:
+    """``valid`` where every one of :func:`swing`'s checks passes as well."""
+    for _, ok in checks:
+        valid = valid & ok
+    return valid
 
 
 def prepare_release(
@@ -88,34 +141,22 @@ def prepare_release(
         All fields broadcast to one 1-d batch shape; invalid elements carry a reason code and
         harmless finite placeholder values, so later arithmetic never warns.
     """
-    alpha, pivot, height, release_speed, release_angle = (
+    alpha, pivot, height, release_speed, release_angle, length, tip, radius = (
         np.atleast_1d(x) for x in np.broadcast_arrays(
             *(np.asarray(v, float) for v in (alpha, pivot, height, release_speed,
-                                             release_angle))))
-    total_length, centre_of_mass, radius_of_gyration = stick.mass_properties(pivot)
-    total_length, centre_of_mass, radius_of_gyration = np.broadcast_arrays(
-        total_length, centre_of_mass, radius_of_gyration, alpha)[:3]
-    arm = total_length - pivot
-    reason = first_failure(
-        [
-            (NOT_FINITE, ~np.isfinite(alpha + pivot + height + release_speed + release_angle
-                                      + total_length + centre_of_mass + radius_of_gyration)),
-            (BAD_ALPHA, ~((alpha > 0) & (alpha <= 1))),
-            (PIVOT_OFF_STICK, ~(pivot >= 0)),
-            (PIVOT_PAST_CM, ~(pivot < centre_of_mass)),
-            (HEIGHT_NOT_POSITIVE, ~(height > 0)),
-            (TIP_CANNOT_REACH, ~(height < arm)),
-            (BAD_RELEASE_ANGLE, ~(np.abs(release_angle) < 0.5 * np.pi)),
-            (NEGATIVE_RELEASE_SPEED, ~(release_speed >= 0)),
-        ],
-        alpha.shape,
-    )
+                                             release_angle, stick.length, stick.tip,
+                                             stick.radius))))
+    if stick.shape not in STICK_SHAPES:
+        raise ValueError(f"unknown stick shape {stick.shape!r}; expected one of {STICK_SHAPES}")
+    checks, (gamma, arm, sin_theta_c, omega0) = swing(
+        stick.shape, length, tip, radius, pivot, height, release_speed, release_angle, g)
+    (code, finite), *rest = checks
+    reason = first_failure([(code, ~(finite & np.isfinite(alpha))),
+                            (BAD_ALPHA, ~((alpha > 0) & (alpha <= 1))),
+                            *((code, ~ok) for code, ok in rest)], alpha.shape)
     bad = reason != 0
     # Placeholders keep invalid elements finite, so vectorised maths needs no masking.
-    gamma = np.where(bad, 1.0, g * (centre_of_mass - pivot) / radius_of_gyration**2)
-    arm = np.where(bad, 1.0, arm)
-    sin_theta_c = np.where(bad, 0.5, height / arm)
-    theta0 = np.where(bad, 0.0, release_angle)
-    omega0 = np.where(bad, 0.0, release_speed / arm)
-    return Release(alpha=alpha, gamma=gamma, arm=arm,
-                   sin_theta_c=sin_theta_c, theta0=theta0, omega0=omega0, reason=reason)
+    return Release(alpha=alpha, gamma=np.where(bad, 1.0, gamma), arm=np.where(bad, 1.0, arm),
+                   sin_theta_c=np.where(bad, 0.5, sin_theta_c),
+                   theta0=np.where(bad, 0.0, release_angle),
+                   omega0=np.where(bad, 0.0, omega0), reason=reason)

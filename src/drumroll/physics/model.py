@@ -1,0 +1,113 @@
+"""What a forward model is: a name, its parameters, and two front ends on one kernel.
+
+Each model lives in its own module as a subclass of :class:`ForwardModel` and is registered
+in :data:`drumroll.physics.models.MODELS` (as emcee keeps one move per file behind a small
+base class). A model's flights are computed by one kernel, which both front ends call:
+
+* :meth:`ForwardModel.flights` is the samplers' path: a batch of parameter points (arrays of
+  one shape, or scalars for fixed parameters) to the flights and one validity mask, with no
+  broadcasting, masking or reason bookkeeping;
+* :meth:`ForwardModel.bounces` is the public path (:func:`~drumroll.physics.bounce_sequence`):
+  the same flights inside a :class:`~drumroll.physics.bounces.Bounces` with the fall time,
+  the contact state and the reason every invalid point fails.
+
+Adding a model is one module with one subclass, one line in the registry, and its tests.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from drumroll.physics.bounces import Bounces
+from drumroll.physics.geometry import StickGeometry
+
+#: Parameter values by internal name (SI): arrays of one batch shape, or scalars.
+Values = Mapping[str, ArrayLike]
+
+
+class ForwardModel(ABC):
+    """A forward model of a bouncer (see the module docstring).
+
+    Attributes
+    ----------
+    name
+        The model's name in configs and outputs.
+    parameters
+        Internal names (SI) of the parameters its kernel takes, besides the stick's.
+    needs_stick
+        Whether it needs a stick and the set-up's geometry (the pendulum models).
+    """
+
+    name: ClassVar[str]
+    parameters: ClassVar[tuple[str, ...]]
+    needs_stick: ClassVar[bool] = False
+
+    @abstractmethod
+    def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,
+                g: float = 9.81) -> tuple[NDArray, NDArray]:
+        """Flights T_1 … T_N of a batch of parameter points and where they are valid.
+
+        Parameters
+        ----------
+        values
+            The parameters by internal name (:attr:`parameters`, and ``stick_length``,
+            ``stick_tip``, ``stick_radius`` for a model that needs a stick): arrays of shape
+            ``(batch,)`` or scalars.
+        n_flights
+            N.
+        stick_shape
+            ``"thin-rod"`` or ``"cylinder-cone"`` (models that need a stick).
+        g
+            Gravitational acceleration (m/s²).
+
+        Returns
+        -------
+        flights, valid
+            Shapes ``(batch, N)`` and ``(batch,)``; rows that are not valid hold garbage.
+        """
+
+    @abstractmethod
+    def bounces(self, values: Values, n_flights: int, stick: StickGeometry | None = None,
+                g: float = 9.81) -> Bounces:
+        """The same flights with the fall and contact state, every invalid point masked
+        with its reason (the parameters broadcast together)."""
+
+    def impacts(self, values: Values, n_flights: int, stick_shape: str | None = None,
+                g: float = 9.81) -> tuple[NDArray, NDArray]:
+        """Impact times τ_0 = 0, τ_k = Σ_{j≤k} T_j, shape ``(batch, N + 1)``, and validity."""
+        flights, valid = self.flights(values, n_flights, stick_shape, g)
+        impacts = np.zeros((flights.shape[0], n_flights + 1))
+        np.cumsum(flights, axis=1, out=impacts[:, 1:])
+        return impacts, valid
+
+
+def batch(*values: ArrayLike) -> tuple[NDArray, ...]:
+    """The values as float arrays of one 1-d batch shape."""
+    return tuple(np.atleast_1d(v) for v in np.broadcast_arrays(
+        *(np.asarray(v, float) for v in values)))
+
+
+def alpha_of(values: Values) -> NDArray:
+    """α as a 1-d array of the batch's shape (the samplers pass it as a column already;
+    where it is fixed, the batch's shape is that of the other values)."""
+    alpha = values["alpha"]
+    if isinstance(alpha, np.ndarray) and alpha.ndim == 1:
+        return alpha
+    shape = np.broadcast(*(np.asarray(v) for v in values.values())).shape or (1,)
+    return np.broadcast_to(np.asarray(alpha, float), shape)
+
+
+def geometric(t_b: NDArray, alpha: NDArray, n_flights: int) -> NDArray:
+    """T_k = t_B α^k, k = 1 … N, per row (eq. 11): the power law's and the small-angle
+    pendulum's flights."""
+    return t_b[:, None] * alpha[:, None] ** np.arange(1.0, n_flights + 1.0)
+
+
+def alpha_valid(alpha: NDArray) -> NDArray:
+    """Where α is a coefficient of restitution: 0 < α ≤ 1 (eq. 9)."""
+    return (alpha > 0.0) & (alpha <= 1.0)
