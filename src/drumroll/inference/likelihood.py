@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special
+
+from drumroll.stats import student_t_logpdf
 
 #: Width (s) of the flat prior on T0 around the first onset.
 T0_WINDOW_S = 1.0
@@ -178,11 +179,7 @@ def student_t_one(data: OnsetData, impacts: NDArray, jitter: float, t0: float, n
     one-point path: scalars in ``math``, one small array for the onsets)."""
     scale2 = jitter * jitter + data.sigmas * data.sigmas
     z2 = (data.times - t0 - data.at_onsets(impacts)) ** 2 / scale2
-    n = data.n_onsets
-    value = (n * (math.lgamma(0.5 * (nu + 1.0)) - math.lgamma(0.5 * nu)
-                  - 0.5 * math.log(nu * math.pi))
-             - 0.5 * float(np.log(scale2).sum())
-             - 0.5 * (nu + 1.0) * float(np.log1p(z2 * (1.0 / nu)).sum()))
+    value = float(student_t_logpdf(z2, nu, 0.5 * np.log(scale2)).sum())
     return value if math.isfinite(value) else -math.inf
 
 
@@ -195,8 +192,7 @@ def pointwise_log_likelihood(data: OnsetData, impacts: NDArray, jitter: NDArray,
     if noise == "gaussian":
         return -0.5 * (z2 + np.log(scale2) + _LOG_2PI)
     nu = _column(nu)  # a fixed ν arrives as a scalar
-    return (special.gammaln(0.5 * (nu + 1.0)) - special.gammaln(0.5 * nu)
-            - 0.5 * np.log(nu * math.pi * scale2) - 0.5 * (nu + 1.0) * np.log1p(z2 / nu))
+    return student_t_logpdf(z2, nu, 0.5 * np.log(scale2))
 
 
 def _column(value: NDArray | float) -> NDArray | float:

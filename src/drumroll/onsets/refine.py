@@ -28,7 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import gammaln
+
+from drumroll.stats import student_t_logpdf
 
 
 @dataclass(frozen=True)
@@ -99,9 +100,7 @@ class Prior:
         sd = max(self.sd, 1.0)
         z = (k - self.mean) / sd
         if np.isfinite(self.dof):
-            nu = max(self.dof, 1.0)
-            core = (gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * np.log(nu * np.pi)
-                    - 0.5 * (nu + 1) * np.log1p(z * z / nu))
+            core = student_t_logpdf(z * z, max(self.dof, 1.0))
         else:
             core = -0.5 * z * z - 0.5 * np.log(2.0 * np.pi)
         return np.logaddexp(np.log1p(-self.outlier) + core - np.log(sd),

@@ -39,9 +39,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import gammaln
 
 from drumroll.onsets.candidates import Candidates
+from drumroll.stats import student_t_logpdf
 
 
 @dataclass(frozen=True)
@@ -197,9 +197,7 @@ class _Beam:
         self.log_width = math.log(2.0 / p.min_ratio)
         self.first_gain = math.log(self.log_width / math.log(1.0 / p.min_ratio))
         # Level: Student t about the trend against a uniform background.
-        nu, s = p.level_dof, p.level_scatter_db
-        self.lev_norm = (gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * math.log(nu * math.pi)
-                         - math.log(s) + math.log(p.level_range_db))
+        self.lev_background = math.log(p.level_range_db)
         # How far back a step may reach: the longest flight, times the unheard bounces.
         self.reach = p.max_interval_s * (p.max_skip + 1)
         cap = max(64, 8 * p.beam)
@@ -210,8 +208,9 @@ class _Beam:
 
     def level_gain(self, e: np.ndarray) -> np.ndarray:
         """Log-likelihood ratio of a level ``e`` dB off the trend."""
-        nu, s = self.p.level_dof, self.p.level_scatter_db
-        return self.lev_norm - 0.5 * (nu + 1) * np.log1p((e / s) ** 2 / nu)
+        s = self.p.level_scatter_db
+        return (student_t_logpdf((e / s) ** 2, self.p.level_dof, math.log(s))
+                + self.lev_background)
 
     def run(self) -> tuple[list[int], np.ndarray, float]:
         """The best path (onset indices in time order), its bounce numbers and its score."""
