@@ -10,7 +10,6 @@ from typing import TYPE_CHECKING
 
 from drumroll.cli.arguments import non_negative_int, positive_int
 from drumroll.cli.progress import Progress
-from drumroll.config import load_config
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.reporting.numbers import format_value_error
@@ -28,8 +27,9 @@ _TRUTH_PHYSICS = {"t_b_s": "t_b", "t_c_s": "t_c", "theta_c_deg": "theta_c_deg",
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of ``estimate`` (shared by ``drumroll estimate`` and ``estimate``)."""
-    parser.add_argument("source", help="recording (WAV, FLAC, OGG, MP3, …) or onset file "
-                        "(our CSV, Audacity labels, one time per line)")
+    parser.add_argument("source", help="recording (WAV, FLAC, OGG, MP3; a phone's .m4a, .3gp, "
+                        ".webm; a camera's .mp4 or .mov; …) or onset file (our CSV, Audacity "
+                        "labels, one time per line)")
     parser.add_argument("--prior", "--config", dest="config", required=True,
                         metavar="CONFIG.toml", help="config with the model and its priors")
     parser.add_argument("-o", "--out", type=Path, help="output folder (default: "
@@ -37,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--roll", type=non_negative_int, metavar="N",
                         help="which roll to fit when the recording holds several (0, 1, 2, "
                         "… in time order; default: the longest)")
+    parser.add_argument("--stream", type=non_negative_int, metavar="N",
+                        help="which audio stream of a video or other file with several (0, 1, "
+                        "2, …; default 0, the first)")
     parser.add_argument("--truth", type=Path, help="truth JSON of a simulated recording "
                         "(drawn on the corner plot)")
     parser.add_argument("--seed", type=int, help="override [sampler] seed")
@@ -107,14 +110,21 @@ def run(args: argparse.Namespace) -> int:
         raise DrumrollError(f"{source}: no such file")
     if source.is_dir():
         raise DrumrollError(f"{source}: is a directory, expected a recording or onset file")
+    from drumroll.config import load_config  # priors and scipy: only when a fit runs
+
     config = _apply_overrides(load_config(args.config), args)
     truths = _truths(args.truth)
     out_dir = args.out or Path(f"{source.stem}-estimate")
     is_audio = source.suffix.lower() not in ONSET_FILE_SUFFIXES
+    if args.stream is not None and not is_audio:
+        raise DrumrollError(f"{source}: --stream picks an audio stream of a recording; an onset "
+                            "file has none")
+    onset_options = {} if args.stream is None else {"stream": args.stream}
     check_outputs(out_dir, output_files(include_onsets_figure=is_audio), overwrite=args.force)
     progress = Progress(quiet=args.quiet)
     with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
-        result = estimate(source, config, roll=args.roll, progress=progress.say)
+        result = estimate(source, config, roll=args.roll, progress=progress.say,
+                          **onset_options)
     with progress.stage(f"writing {out_dir}"):
         write_outputs(result, out_dir, overwrite=args.force, truths=truths,
                       workers=args.workers)

@@ -6,12 +6,14 @@ import argparse
 import json
 import math
 import warnings
+from typing import TYPE_CHECKING
 
 from drumroll.cli.arguments import positive_int
-from drumroll.config import load_config
 from drumroll.errors import DrumrollError, DrumrollWarning
-from drumroll.inference.prior_predictive import Prediction, predictable_models, propagate
 from drumroll.reporting.numbers import format_value_error
+
+if TYPE_CHECKING:
+    from drumroll.inference.prior_predictive import Prediction
 
 _LABELS = {"t_c": ("t_C", "s"), "t_b": ("t_B", "s"), "theta_c": ("θ_C", "deg"),
            "omega_c": ("ω_C", "rad/s"), "contact_tip_speed_m_s": ("tip speed", "m/s")}
@@ -36,6 +38,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``predict``."""
+    # The models and priors (scipy): only when predict runs, not for every command's --help.
+    from drumroll.config import load_config
+    from drumroll.inference.prior_predictive import predictable_models, propagate
+
     config = load_config(args.config)
     models = predictable_models(config)
     if not models:

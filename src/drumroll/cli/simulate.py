@@ -24,7 +24,6 @@ import numpy as np
 import soundfile as sf
 
 from drumroll import __version__
-from drumroll.config import load_config
 from drumroll.errors import ConfigError, DrumrollError, DrumrollWarning
 from drumroll.fileio import check_writable, write_text, write_with
 
@@ -56,7 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``simulate``."""
-    # The simulator: imported only when needed.
+    # The simulator and the config's priors (scipy): imported only when it runs.
+    from drumroll.config import load_config
     from drumroll.simulation import render, render_hits
     from drumroll.simulation.settings import load_recorded, true_impacts
 
