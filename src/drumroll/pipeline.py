@@ -24,6 +24,7 @@ import arviz as az
 import numpy as np
 
 from drumroll import __version__
+from drumroll.audio.io import AudioSource
 from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
@@ -266,8 +267,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     Parameters
     ----------
     source
-        A recording (anything soundfile reads), an onset file (our CSV, Audacity labels, one
-        time per line) or an :class:`~drumroll.onsets.OnsetTable`.
+        A recording (anything soundfile or FFmpeg reads: see :mod:`drumroll.audio.io`), an
+        onset file (our CSV, Audacity labels, one time per line) or an
+        :class:`~drumroll.onsets.OnsetTable`.
     config
         A :class:`~drumroll.config.Config` or the path of a TOML config.
     roll
@@ -276,7 +278,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     progress
         Called with a line of text at each stage (the command line prints it on stderr).
     onset_options
-        Passed to :func:`drumroll.onsets.detect` when ``source`` is audio.
+        Passed to :func:`drumroll.onsets.detect` when ``source`` is audio (``stream=N``: which
+        audio stream of the file).
 
     Returns
     -------
@@ -377,6 +380,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         "seconds": {**seconds, **{f"{m}_{k}": v for m, f in fits.items()
                                   for k, v in f.seconds.items()}},
     }
+    recording = None if isinstance(source, OnsetTable) else Path(source)
+    if recording is not None and onset_options.get("stream") is not None:
+        # The onset figure reads the audio stream the onsets came from.
+        recording = AudioSource(recording, onset_options["stream"])
     return Result(summary=summary, fits=fits, onsets=onsets, config=config,
-                  source=None if isinstance(source, OnsetTable) else Path(source),
-                  seconds=seconds, loos=loos)
+                  source=recording, seconds=seconds, loos=loos)

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from drumroll import fileio
+from drumroll.cli.arguments import non_negative_int
 from drumroll.onsets.table import COLUMNS
 
 
@@ -17,7 +18,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "a recording, to the sample, each with its timing uncertainty and its bounce number "
         "(0 for a roll's first impact; an unheard bounce leaves a gap). Without -o the CSV "
         f"({','.join(COLUMNS)}) is printed.")
-    p.add_argument("audio", metavar="AUDIO", help="recording (WAV, FLAC, OGG, MP3, ...)")
+    p.add_argument("audio", metavar="AUDIO", help="recording (WAV, FLAC, OGG, MP3; a phone's "
+                   ".m4a, .3gp, .webm; a camera's .mp4 or .mov; ...)")
     p.add_argument("-o", "--output", metavar="CSV", help="write the onset table here")
     p.add_argument("--labels", metavar="TXT", help="also write an Audacity label track")
     p.add_argument("--plot", metavar="PNG", help="also draw the waveform with the onsets")
@@ -28,12 +30,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--threshold", type=float, default=5.0, metavar="Z",
                    help="significance for a candidate, in robust standard deviations "
                    "(default 5)")
+    p.add_argument("--stream", type=non_negative_int, metavar="N",
+                   help="which audio stream of a video or other file with several (0, 1, 2, "
+                   "…; default 0, the first)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``drumroll onsets``."""
+    from drumroll.audio.io import AudioSource
     from drumroll.onsets import detect  # scipy.signal: imported only when needed
 
     # Refuse to clobber before doing the work, not after it.
@@ -41,7 +47,9 @@ def run(args: argparse.Namespace) -> int:
         if path:
             fileio.check_writable(path, overwrite=args.force)
     options = {} if args.highpass is None else {"highpass_hz": args.highpass}
-    table = detect(args.audio, threshold=args.threshold, all_candidates=args.all_candidates,
+    # The stream travels with the path, so that the figure reads the same stream.
+    audio = args.audio if args.stream is None else AudioSource(args.audio, args.stream)
+    table = detect(audio, threshold=args.threshold, all_candidates=args.all_candidates,
                    **options)
     csv = table.to_csv(all_candidates=args.all_candidates)
     if args.output:
@@ -53,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from drumroll.reporting.onset_plot import write_onset_plot
 
-        write_onset_plot(args.plot, args.audio, table, overwrite=args.force)
+        write_onset_plot(args.plot, audio, table, overwrite=args.force)
     if args.output:
         print(f"drumroll: {_describe(table)} written to {args.output}", file=sys.stderr)
     return 0

@@ -11,14 +11,16 @@ is one function and one line in that list.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, iter_blocks, probe, read_excerpt
-from drumroll.errors import AudioError
+from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, AudioInfo, iter_blocks, probe, read_excerpt
+from drumroll.audio.timing import timing_floor
+from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets.candidates import Candidates, CandidateStream
 from drumroll.onsets.channels import earliest_channel
 from drumroll.onsets.envelope import next_by_envelope, retime_by_envelope
@@ -136,16 +138,20 @@ STAGES: tuple[Stage, ...] = (
 
 def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *,
            threshold: float = 5.0, all_candidates: bool = False,
-           block_frames: int = DEFAULT_BLOCK_FRAMES, **options: float) -> OnsetTable:
+           block_frames: int = DEFAULT_BLOCK_FRAMES, stream: int | None = None,
+           **options: float) -> OnsetTable:
     """Find the impacts of every drumroll (or other free bouncer) in a recording.
 
     Parameters
     ----------
     source
-        A file soundfile reads (read in blocks: any length), or an array of samples
+        A recording (read in blocks: any length): what soundfile reads, and what phones and
+        cameras write, which FFmpeg decodes (:mod:`drumroll.audio.io`); or an array of samples
         (``(n,)`` or ``(n, channels)``) together with ``sr``. Candidates are found on the
         mean of the channels, onsets timed on the one that hears them first
-        (:mod:`.channels`).
+        (:mod:`.channels`). Where the file's codec or rate limits how well an onset can be
+        timed, each ``sigma_s`` has that limit added (in quadrature) and a
+        :class:`~drumroll.errors.DrumrollWarning` says so (:mod:`drumroll.audio.timing`).
     sr
         Sample rate of an array ``source``; ignored for files.
     threshold
@@ -155,6 +161,9 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
         Also return the candidates that are no onset of a roll, each with its reason.
     block_frames
         Samples read per block from a file.
+    stream
+        Which audio stream of a file (0-based among its audio streams; default the first, or
+        that of a :class:`~drumroll.audio.AudioSource`).
     **options
         Detection-function settings (:class:`~drumroll.onsets.odf.OdfParams`: ``hop_s``,
         ``highpass_hz``, ``post_s``, ``pre_s``) and tracker settings
@@ -178,6 +187,7 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     odf = OdfParams(**{k: v for k, v in options.items() if k in _ODF_KEYS})
     tparams = TrackParams(**{k: v for k, v in options.items() if k in _TRACK_KEYS})
 
+    info: AudioInfo | None = None
     if isinstance(source, np.ndarray):
         name = "<array>"
         if sr is None or sr <= 0:
@@ -198,12 +208,13 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
             return out
     else:
         name = str(Path(source))
-        info = probe(source)
+        which = stream  # (``stream`` names the candidate stream below)
+        info = probe(source, stream=which)
         rate, n_channels = info.sample_rate, info.channels
-        blocks = iter_blocks(source, block_frames)
+        blocks = iter_blocks(source, block_frames, stream=which)
 
         def excerpt(start: int, stop: int, channel: int | None = None) -> np.ndarray:
-            return read_excerpt(source, start, stop, channel)
+            return read_excerpt(source, start, stop, channel, stream=which)
 
     stream = CandidateStream(rate, odf, threshold=threshold)
     for block in blocks:
@@ -217,7 +228,19 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
                   stream.total / rate)
     rolls = _rolls(cands, ctx, odf, name, rate,
                    lambda start, stop: excerpt(start, stop, channel))
-    return _table(rolls, cands, name, rate, all_candidates, channel)
+    table = _table(rolls, cands, name, rate, all_candidates, channel)
+    return table if info is None else _with_codec_floor(table, info)
+
+
+def _with_codec_floor(table: OnsetTable, info: AudioInfo) -> OnsetTable:
+    """The table with the timing floor of the file's codec and rate added to every
+    ``sigma_s`` (in quadrature), and a one-line warning saying so; unchanged for a file
+    whose codec and rate limit nothing (:func:`~drumroll.audio.timing.timing_floor`)."""
+    floor = timing_floor(info)
+    if floor is None:
+        return table
+    warnings.warn(floor.message, DrumrollWarning, stacklevel=3)
+    return replace(table, sigma_s=np.hypot(table.sigma_s, floor.sd_s))
 
 
 def _samples(x: np.ndarray, name: str) -> np.ndarray:

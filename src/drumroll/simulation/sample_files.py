@@ -10,23 +10,17 @@ from __future__ import annotations
 
 import os
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
-import soundfile as sf
 from scipy import signal
 
-from drumroll.audio.io import probe
+from drumroll.audio.io import probe, read_audio
 from drumroll.errors import AudioError
-
-#: soundfile subtypes of lossy codecs (transform codecs: they smear noise ahead of transients).
-LOSSY_SUBTYPES = frozenset({"VORBIS", "OPUS", "MPEG_LAYER_I", "MPEG_LAYER_II",
-                            "MPEG_LAYER_III"})
 
 
 def is_lossy(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` holds lossy-coded audio (Vorbis, Opus, MP3)."""
-    return probe(path).subtype in LOSSY_SUBTYPES
+    """Whether ``path`` holds lossy-coded audio (Vorbis, Opus, MP3, AAC, AMR, ...)."""
+    return not probe(path).lossless
 
 
 def read_mono(path: str | os.PathLike[str], sample_rate: int) -> np.ndarray:
@@ -35,7 +29,7 @@ def read_mono(path: str | os.PathLike[str], sample_rate: int) -> np.ndarray:
     Parameters
     ----------
     path
-        Any file soundfile reads (WAV, FLAC, OGG, ...).
+        Any recording :mod:`drumroll.audio.io` reads (WAV, FLAC, OGG, a phone's .m4a, ...).
     sample_rate
         Samples per second of the result.
 
@@ -50,16 +44,13 @@ def read_mono(path: str | os.PathLike[str], sample_rate: int) -> np.ndarray:
         One line naming the file: missing, not audio, damaged, empty, or holding NaN or
         infinite samples.
     """
-    probe(path)  # one-line errors for missing, unreadable and empty files
-    try:
-        data, rate = sf.read(Path(path), dtype="float64", always_2d=True)
-    except (sf.LibsndfileError, RuntimeError) as exc:
-        raise AudioError(f"{path}: audio data damaged ({' '.join(str(exc).split())})") from None
-    if data.shape[0] == 0:
+    # One-line errors for missing, unreadable, damaged and empty files; a sample is not
+    # checked for clipping (a hit normalised to full scale is not a clipped recording).
+    mono, rate = read_audio(path, check=False)
+    if mono.size == 0:
         raise AudioError(f"{path}: holds no audio (zero-length or truncated)")
-    if not np.isfinite(data).all():
+    if not np.isfinite(mono).all():
         raise AudioError(f"{path}: NaN or infinite samples")
-    mono = data.mean(axis=1)
     return resample(mono, int(rate), int(sample_rate))
 
 

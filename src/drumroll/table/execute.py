@@ -88,13 +88,15 @@ def code_digest() -> str:
 
 
 def run_key(run: Run) -> str:
-    """The cache key of a run: its source's bytes, the roll fitted, the effective config, the
-    drumroll version and its code (:func:`code_digest`)."""
+    """The cache key of a run: its source's bytes, the roll fitted and the audio stream read,
+    the effective config, the drumroll version and its code (:func:`code_digest`)."""
     document = {"source_sha256": file_digest(run.source), "config": run.raw,
                 "version": __version__, "code": code_digest(), "schema": CACHE_SCHEMA,
                 "predict": [PREDICT_DRAWS, PREDICT_SEED]}
     if run.roll is not None:  # (absent otherwise, so that the keys of other runs stay put)
         document["roll"] = run.roll
+    if run.stream is not None:  # (likewise)
+        document["stream"] = run.stream
     text = json.dumps(document, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:40]
 
@@ -105,9 +107,10 @@ def _value_error(entry: dict[str, Any] | None) -> dict[str, float | None]:
     return {"value": entry["mean"], "err": entry["sd"]}
 
 
-def compute_run(source: str, raw: dict[str, Any], roll: int | None = None) -> dict[str, Any]:
-    """Estimate one run (roll ``roll`` of its source; default the longest) and propagate its
-    priors; the JSON-ready row data.
+def compute_run(source: str, raw: dict[str, Any], roll: int | None = None,
+                stream: int | None = None) -> dict[str, Any]:
+    """Estimate one run (roll ``roll`` of its source, default the longest; audio stream
+    ``stream``, default the first) and propagate its priors; the JSON-ready row data.
 
     Runs in a worker (a process or a Dask worker): it takes only picklable, plain inputs and
     imports the heavy modules itself.
@@ -132,7 +135,8 @@ def compute_run(source: str, raw: dict[str, Any], roll: int | None = None) -> di
 
     started = time.perf_counter()
     config = parse_config(raw)
-    result = estimate(source, config, roll=roll)
+    result = estimate(source, config, roll=roll,
+                      **({} if stream is None else {"stream": stream}))
     computed: dict[str, dict[str, float]] = {}
     if config.stick is not None:
         for model in GEOMETRIC_MODELS:
@@ -255,7 +259,7 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
             for i in todo:
                 try:
                     row = compute_run(str(runs.runs[i].source), runs.runs[i].raw,
-                                      runs.runs[i].roll)
+                                      runs.runs[i].roll, runs.runs[i].stream)
                 except DrumrollError as exc:
                     fail(i, exc)
                     continue
@@ -279,7 +283,7 @@ def _submit_all(executor: Executor, runs: RunsFile, todo: list[int],
     ``fail``) as it completes. Anything else, Ctrl-C included, cancels the runs not started."""
     futures: dict[Future, int] = {
         executor.submit(compute_run, str(runs.runs[i].source), runs.runs[i].raw,
-                        runs.runs[i].roll): i
+                        runs.runs[i].roll, runs.runs[i].stream): i
         for i in todo}
     try:
         for future in as_completed(futures):

@@ -15,6 +15,7 @@ The format (a contract; paths are relative to the RUNS.toml file)::
     source = "roll_d110.flac"     # audio or onset file
     group = "pivot"               # optional: runs sharing a group share a Figure 5 panel
     roll = 1                      # optional: which roll of the source (default the longest)
+    stream = 1                    # optional: which audio stream of a video (default 0)
     config = "other.toml"         # optional: instead of base
     [run.priors]                  # per-run overrides, same keys as the config's [priors]
     pivot_mm = { dist = "normal", mu = 110, sigma = 2 }
@@ -41,7 +42,7 @@ from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS, ParameterSpec
 #: Config sections a RUNS file (top level or one run) may override.
 OVERRIDABLE = ("priors", "stick", "sampler", "likelihood", "report")
 _TOP_LEVEL = ("base", "vary", "title", "share", "run", *OVERRIDABLE)
-_RUN_KEYS = ("label", "source", "config", "group", "roll", *OVERRIDABLE)
+_RUN_KEYS = ("label", "source", "config", "group", "roll", "stream", *OVERRIDABLE)
 #: Sections of a config that estimation never reads (left out of the effective config).
 _IGNORED_SECTIONS = ("simulate",)
 #: Sections parsed by the estimation code (validated by :func:`validate_estimation`).
@@ -70,6 +71,8 @@ class Run:
         Figure 5 panel (``None``: the single default panel).
     roll
         Which roll of the source to fit (0, 1, 2, … in time order; ``None``: the longest).
+    stream
+        Which audio stream of the source (0-based; ``None``: the first).
     """
 
     label: str
@@ -78,6 +81,7 @@ class Run:
     config: Config
     group: str | None = None
     roll: int | None = None
+    stream: int | None = None
 
 
 @dataclass(frozen=True)
@@ -271,6 +275,8 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
     group = string(entry["group"], f"{where}.group") if "group" in entry else None
     roll = (int(number(entry["roll"], f"{where}.roll", nonnegative=True, integer=True))
             if "roll" in entry else None)
+    stream = (int(number(entry["stream"], f"{where}.stream", nonnegative=True, integer=True))
+              if "stream" in entry else None)
     overrides = {**{k: dict(v) for k, v in common.items()}}
     for section in OVERRIDABLE:
         if section in entry:
@@ -287,7 +293,8 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
                 table(raw[section], section)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    return Run(label=label, source=source, raw=raw, config=config, group=group, roll=roll)
+    return Run(label=label, source=source, raw=raw, config=config, group=group, roll=roll,
+               stream=stream)
 
 
 def _check_run(run: Run, vary: str | None, share: tuple[str, ...]) -> None:
