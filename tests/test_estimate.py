@@ -25,7 +25,8 @@ STICK = StickGeometry("cylinder-cone", 0.348, 0.060, 0.0075)
 
 
 
-def stick_config(compare: str, evidence: bool, height: float, sigma_h: float = 3.0) -> str:
+def stick_config(compare: str, evidence: bool | str, height: float, sigma_h: float = 3.0) -> str:
+    evidence = f'"{evidence}"' if isinstance(evidence, str) else str(evidence).lower()
     return textwrap.dedent(f"""\
         model = "pendulum"
         compare = [{compare}]
@@ -39,7 +40,7 @@ def stick_config(compare: str, evidence: bool, height: float, sigma_h: float = 3
         jitter_ms = {{ dist = "loguniform", low = 0.01, high = 10 }}
 
         [sampler]
-        evidence = {str(evidence).lower()}
+        evidence = {evidence}
         """)
 
 
@@ -170,7 +171,7 @@ def test_conditional_pointwise_is_the_ratio_of_marginals():
 def test_pendulum_preferred_for_large_contact_angle_and_small_jitter(tmp_path):
     source = simulated_onsets(tmp_path / "big.txt", drop_times(0.150, 1e-4, 22, seed=5))
     config = tmp_path / "c.toml"
-    config.write_text(stick_config('"small-angle"', evidence=True, height=150))
+    config.write_text(stick_config('"small-angle"', evidence="nested", height=150))
     result = estimate(source, config)
     assert result.preferred == "pendulum"
     row = result.summary["comparison"][0]

@@ -3,9 +3,10 @@
 The data's path: onsets (:mod:`drumroll.onsets`) → the roll to fit (:func:`choose_roll`: one
 roll of the recording, its bounce numbers counted from its first onset) → log posterior of
 each model
-(:class:`~drumroll.inference.posterior.LogPosterior`) → emcee
-(:func:`~drumroll.inference.sampling.run_emcee`) and, for Bayes factors, dynesty
-(:func:`~drumroll.inference.evidence.compute_evidence`) → ArviZ InferenceData → PSIS-LOO
+(:class:`~drumroll.inference.posterior.LogPosterior`) → ensemble MCMC
+(:func:`~drumroll.inference.sampling.run_emcee`) and, for Bayes factors, ln Z
+(:func:`~drumroll.inference.evidence.choose_evidence`: importance sampling checked by its
+Pareto k, dynesty where that fails) → ArviZ InferenceData → PSIS-LOO
 comparison and verdict → :class:`Result`, which :mod:`drumroll.outputs` writes to disk.
 """
 
@@ -29,7 +30,7 @@ from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.inference.comparison import LooResult, compare_models
-from drumroll.inference.evidence import Evidence, compute_evidence, importance_evidence
+from drumroll.inference.evidence import Evidence, choose_evidence
 from drumroll.inference.inference_data import EXPORT, build_inference_data, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
@@ -41,9 +42,10 @@ from drumroll.workers import process_pool
 
 #: Fewest onsets that can constrain a model (three flights).
 MIN_ONSETS = 4
-#: Posterior draws kept per model (beyond this the chain is thinned further: the ESS of every
-#: parameter stays far above 400, and posterior.nc and the figures stay small).
-MAX_DRAWS = 8000
+#: Posterior draws stored per model in posterior.nc and drawn in the figures (beyond this the
+#: chain is thinned further, and the InferenceData says by how much); every summary, R-hat and
+#: ESS is computed on all draws before.
+MAX_DRAWS = 3000
 
 Progress = Callable[[str], None]
 
@@ -193,10 +195,12 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
 
 def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings, seed: int
          ) -> tuple[Chain, Evidence | None, Evidence | None, dict[str, float]]:
-    """Sample one model, and its evidence two independent ways; runs in a worker process.
+    """Sample one model, and its evidence as ``[sampler] evidence`` asks; runs in a worker
+    process.
 
-    Returns the chain, dynesty's evidence and the importance-sampling cross-check (both None
-    without ``evidence``), and the seconds each took.
+    Returns the chain, the evidence used and the other estimate when one was made (see
+    :func:`~drumroll.inference.evidence.choose_evidence`; both None without evidence), and
+    the seconds each stage took.
     """
     log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
     started = time.perf_counter()
@@ -204,15 +208,11 @@ def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings
                       reported=partial(reported_draws, log_posterior, seed))
     seconds = {"emcee": time.perf_counter() - started}
     evidence = check = None
-    if settings.evidence:
+    if settings.evidence != "none":
         started = time.perf_counter()
-        evidence = compute_evidence(log_posterior, chain.samples, seed=seed,
-                                    n_live=settings.live_points)
-        seconds["dynesty"] = time.perf_counter() - started
-        started = time.perf_counter()
-        check = importance_evidence(log_posterior, chain.samples,
-                                    np.random.default_rng(seed + 1))
-        seconds["importance"] = time.perf_counter() - started
+        evidence, check = choose_evidence(log_posterior, chain.samples, settings.evidence,
+                                          seed=seed, n_live=settings.live_points)
+        seconds["evidence"] = time.perf_counter() - started
     return chain, evidence, check, seconds
 
 
@@ -226,13 +226,25 @@ def reported_draws(log_posterior: LogPosterior, seed: int, draws: np.ndarray
 
 def evidence_summary(evidence: Evidence, check: Evidence | None) -> tuple[dict, str | None]:
     """The ``summary.json`` entry of one model's evidence, and a warning if the two
-    independent estimates (nested sampling, importance sampling) disagree."""
-    entry = {"log_z": evidence.log_z, "log_z_err": evidence.log_z_err,
-             "n_calls": evidence.n_calls}
+    independent estimates (nested sampling, importance sampling) disagree.
+
+    ``method`` says which estimator gave ``log_z``; ``pareto_k`` and ``importance_ess`` are
+    importance sampling's diagnostics, ``fallback`` why nested sampling was used instead of
+    it (None when it was not, or was asked for), and ``importance_log_z`` its own estimate
+    when nested sampling gave ``log_z``.
+    """
+    entry: dict[str, Any] = {"log_z": evidence.log_z, "log_z_err": evidence.log_z_err,
+                             "method": evidence.method, "n_calls": evidence.n_calls,
+                             "fallback": None}
+    if evidence.method == "importance":
+        entry.update(pareto_k=evidence.pareto_k, importance_ess=evidence.ess)
     if check is None:
         return entry, None
     entry.update(importance_log_z=check.log_z, importance_log_z_err=check.log_z_err,
-                 importance_ess=check.ess)
+                 importance_ess=check.ess, pareto_k=check.pareto_k,
+                 fallback=check.failure if check.method == "importance" else None)
+    if check.method == "importance" and not check.trusted:
+        return entry, None  # the cheap estimate failed its own check: nothing to compare
     tolerance = 3.0 * math.hypot(evidence.log_z_err, check.log_z_err)
     if abs(evidence.log_z - check.log_z) <= tolerance:
         return entry, None
@@ -246,11 +258,14 @@ def thin_draws(idata: az.InferenceData, max_draws: int) -> az.InferenceData:
     chains, draws = idata.posterior.sizes["chain"], idata.posterior.sizes["draw"]
     step = -(-chains * draws // max_draws)  # ceiling division
     if step <= 1:
+        idata.posterior.attrs.update(stored_every=1, draws_before_storing=chains * draws)
         return idata
     keep = slice((draws - 1) % step, None, step)
     thinned = idata.isel(draw=keep, groups=["posterior", "posterior_predictive",
                                              "log_likelihood", "sample_stats"])
     thinned.sample_stats.attrs["thin"] = int(idata.sample_stats.attrs.get("thin", 1)) * step
+    # Say how the stored draws were chosen, where a reader of posterior.nc looks first.
+    thinned.posterior.attrs.update(stored_every=step, draws_before_storing=chains * draws)
     return thinned
 
 
@@ -305,7 +320,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
 
     models = config.models
     workers = max(1, min(settings.workers, len(models)))
-    evidence_note = "with evidences by nested sampling, " if settings.evidence else ""
+    evidence_note = {"auto": "with evidences, ", "nested": "with evidences by nested sampling, ",
+                     "none": ""}[settings.evidence]
     say(f"sampling {', '.join(models)} ({evidence_note}{workers} "
         f"process{'es' if workers > 1 else ''})")
     started = time.perf_counter()

@@ -54,6 +54,11 @@ class SamplerCoordinates:
         object.__setattr__(self, "_height", height)
         object.__setattr__(self, "_t0", t0)
 
+    @property
+    def t0_column(self) -> int | None:
+        """The column of T0's non-centred offset δ, when T0 is sampled (else None)."""
+        return self._t0
+
     def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """γ, L − d, ω0 and θ0 per row (only the columns other than h are used; h is given
         a placeholder, since q, not h, is what the rows hold)."""

@@ -1,6 +1,7 @@
-"""Bayesian evidence, for log Bayes factors between models: nested sampling (dynesty),
-repartitioned onto a reference density placed on the emcee posterior, and an
-importance-sampling cross-check.
+"""Bayesian evidence, for log Bayes factors between models: importance sampling from a
+density fitted to the posterior draws, validated by its own Pareto-k diagnostic, and nested
+sampling (dynesty, repartitioned onto a reference density placed on the same draws) where
+that diagnostic fails or when asked for.
 
 The likelihood and priors are exactly those emcee samples (:class:`LogPosterior`); with
 Gaussian noise T0 is marginalised over the same flat window in every model, so that constant
@@ -10,8 +11,11 @@ cancels in a Bayes factor.
 from __future__ import annotations
 
 import math
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import arviz as az
 import dynesty
 import numpy as np
 from numpy.typing import NDArray
@@ -36,12 +40,60 @@ class Evidence:
         Likelihood evaluations used.
     ess
         Effective sample size of the importance weights (None for nested sampling).
+    method
+        ``"nested"`` (dynesty) or ``"importance"``.
+    pareto_k
+        Importance sampling's diagnostic: the shape k̂ of a generalised Pareto fitted to the
+        largest weights (PSIS; Vehtari et al. 2024). Above :data:`PARETO_K_MAX` the weights'
+        variance is effectively infinite and neither ln Z nor its error can be trusted.
     """
 
     log_z: float
     log_z_err: float
     n_calls: int
     ess: float | None = None
+    method: str = "nested"
+    pareto_k: float | None = None
+
+    @property
+    def trusted(self) -> bool:
+        """Whether the estimate passes its own diagnostic (nested sampling always does;
+        importance sampling when k̂ ≤ :data:`PARETO_K_MAX` and the weights' ESS is at least
+        :data:`MIN_IMPORTANCE_ESS` of the draws)."""
+        return self.failure is None
+
+    @property
+    def failure(self) -> str | None:
+        """Why the estimate cannot be trusted, in words (None when it can)."""
+        if self.method != "importance":
+            return None
+        if self.pareto_k is None or not self.pareto_k <= PARETO_K_MAX:
+            k = "undefined" if self.pareto_k is None else f"{self.pareto_k:.2f}"
+            return (f"importance weights' Pareto k = {k} > {PARETO_K_MAX} "
+                    "(a few draws carry the estimate: the proposal misses part of the "
+                    "posterior, e.g. a mode the chain never visited)")
+        if self.ess is None or not self.ess >= MIN_IMPORTANCE_ESS * self.n_calls:
+            return (f"importance weights' ESS {self.ess:.0f} is under "
+                    f"{MIN_IMPORTANCE_ESS:.0%} of {self.n_calls} draws")
+        return None
+
+
+#: Largest Pareto k̂ of the importance weights that is trusted (Vehtari et al. 2024: above
+#: 0.7 the estimate's error is unbounded in practice; at 20,000 draws their sample-size
+#: dependent threshold, 1 − 1/log10(S) = 0.77, is looser).
+PARETO_K_MAX = 0.7
+#: Smallest importance-weight ESS trusted, as a fraction of the draws: a proposal fitted to
+#: the posterior gives 30–60 % in these models; a few percent means it fits badly.
+MIN_IMPORTANCE_ESS = 0.05
+#: Importance sampling's defensive component (Hesterberg 1995): this share of the proposal is
+#: a Student-t this many times wider than the posterior. It bounds the weights wherever the
+#: posterior is broader than its main component (the jitter's flat shelf down to its prior's
+#: lower end), and sends draws far enough that a mode the chain missed a few sd away is hit
+#: and shows in the weights' Pareto k.
+DEFENSIVE_WEIGHT = 0.2
+DEFENSIVE_INFLATE = 3.0
+#: What ``[sampler] evidence`` may say.
+EVIDENCE_MODES = ("auto", "nested", "none")
 
 
 #: Tail weight (degrees of freedom) and width (× the posterior's sd) of nested sampling's
@@ -74,13 +126,18 @@ class ReferenceProblem:
         Draws from the posterior (any shape ending in ndim), e.g. ``Chain.samples``.
     """
 
-    def __init__(self, log_posterior: LogPosterior, posterior_samples: NDArray,
-                 nu: float = REFERENCE_NU, inflate: float = REFERENCE_INFLATE) -> None:
+    def __init__(self, log_posterior: LogPosterior | Callable[[NDArray], float],
+                 posterior_samples: NDArray, nu: float = REFERENCE_NU,
+                 inflate: float = REFERENCE_INFLATE) -> None:
         self.log_posterior = log_posterior
-        self.coordinates = SamplerCoordinates(log_posterior.space, log_posterior.data)
+        space = getattr(log_posterior, "space", None)
+        # Any callable of one point (prior × likelihood) is integrated in its own coordinates.
+        self.coordinates = (SamplerCoordinates(space, log_posterior.data) if space is not None
+                            else None)
         self.nu = nu
         samples = np.asarray(posterior_samples, float)
-        z = self.coordinates.to_sampler(samples.reshape(-1, samples.shape[-1]))
+        samples = samples.reshape(-1, samples.shape[-1])
+        z = self.coordinates.to_sampler(samples) if self.coordinates is not None else samples
         z = z[np.all(np.isfinite(z), axis=1)]
         self.ndim = z.shape[1]
         self.mean = z.mean(axis=0)
@@ -96,15 +153,19 @@ class ReferenceProblem:
     def log_likelihood(self, w: NDArray) -> float:
         """ln(L π |det ∂x/∂z| / π̃) at one w; a finite floor where the prior or the physics
         forbids the point."""
-        mapped = self.coordinates.to_parameters_one(self.mean + self.chol @ w)
-        if mapped is None:
-            return _FLOOR
-        x, log_det, impacts = mapped
-        space = self.log_posterior.space
-        log_prior = space.log_prior_one(x)
-        if log_prior == -math.inf:
-            return _FLOOR
-        value = log_prior + self.log_posterior.log_likelihood_one(x, impacts) + log_det
+        z = self.mean + self.chol @ w
+        if self.coordinates is None:
+            value = float(np.asarray(self.log_posterior(z)).reshape(-1)[0])
+        else:
+            mapped = self.coordinates.to_parameters_one(z)
+            if mapped is None:
+                return _FLOOR
+            x, log_det, impacts = mapped
+            space = self.log_posterior.space
+            log_prior = space.log_prior_one(x)
+            if log_prior == -math.inf:
+                return _FLOOR
+            value = log_prior + self.log_posterior.log_likelihood_one(x, impacts) + log_det
         if not math.isfinite(value):
             return _FLOOR
         log_reference = self.log_norm - 0.5 * (self.nu + 1.0) * float(
@@ -144,23 +205,33 @@ def compute_evidence(log_posterior: LogPosterior, posterior_samples: NDArray, se
     sampler.run_nested(dlogz=dlogz, print_progress=False)
     results = sampler.results
     return Evidence(log_z=float(results.logz[-1]), log_z_err=float(results.logzerr[-1]),
-                    n_calls=int(np.sum(results.ncall)))
+                    n_calls=int(np.sum(results.ncall)), method="nested")
 
 
 def importance_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
                         rng: np.random.Generator, n: int = 20_000, nu: float = 4.0,
-                        inflate: float = 1.2, batch: int = 4096) -> Evidence:
-    """ln Z by importance sampling from a Student-t fitted to posterior samples.
+                        inflate: float = 1.2, batch: int = 4096,
+                        defensive: float = DEFENSIVE_WEIGHT,
+                        defensive_inflate: float = DEFENSIVE_INFLATE) -> Evidence:
+    """ln Z by importance sampling from Student-t's fitted to posterior samples.
 
     A cross-check of :func:`compute_evidence` by another algorithm (both place their
     density on the posterior draws, but nested sampling's result does not depend on how well):
     the emcee draws are mapped to :class:`SamplerCoordinates` (where the posterior is nearly
     Gaussian), a multivariate Student-t with ``nu`` degrees of freedom, their mean and
     ``inflate``² times their covariance is fitted (heavier tails than the posterior, so the
-    weights have finite variance), and Z = E_q[p(x(z)) |det ∂x/∂z| / q(z)] is averaged over
-    ``n`` fresh draws. The error is the weights' standard error, relative to their mean:
+    weights have finite variance), mixed with a share ``defensive`` of the same Student-t
+    ``defensive_inflate`` times wider (:data:`DEFENSIVE_WEIGHT`), and
+    Z = E_q[p(x(z)) |det ∂x/∂z| / q(z)] is averaged over ``n`` fresh draws. The error is the
+    weights' standard error, relative to their mean:
     δ ln Z ≈ sd(w) / (mean(w) sqrt(n)); ``ess`` = (Σw)² / Σw² says how well q matches (close
-    to ``n`` is good; a few percent of ``n`` means the error itself is unreliable).
+    to ``n`` is good; a few percent of ``n`` means the error itself is unreliable), and the
+    Pareto k̂ of the largest weights (``arviz.psislw``) says whether the weights have the
+    finite variance that error assumes (:attr:`Evidence.trusted`). A part of the posterior the
+    draws never reached (a second mode) shows as a few draws of the proposal's heavy tails
+    landing there with enormous weights: k̂ and the ESS flag it. A part so far away that none
+    of the ``n`` draws lands there cannot be seen by this or any estimator built on the draws;
+    nested sampling's heavy-tailed reference reaches it.
 
     Parameters
     ----------
@@ -191,14 +262,20 @@ def importance_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
     chol = np.linalg.cholesky(cov)
     log_norm = (special.gammaln(0.5 * (nu + ndim)) - special.gammaln(0.5 * nu)
                 - 0.5 * ndim * math.log(nu * math.pi) - np.log(np.diag(chol)).sum())
+    # q = (1 − δ) t(m, C) + δ t(m, r² C): both in the whitened coordinates of the first.
+    ratio = defensive_inflate / inflate
+    log_mix = (math.log1p(-defensive), math.log(defensive) - ndim * math.log(ratio))
     log_w = np.empty(n)
     for start in range(0, n, batch):
         m = min(batch, n - start)
         u = rng.standard_normal((m, ndim))
         scale = np.sqrt(nu / rng.chisquare(nu, m))
+        scale = np.where(rng.random(m) < defensive, ratio * scale, scale)
         draws = mean + scale[:, None] * (u @ chol.T)
         maha = np.einsum("ij,ij->i", u, u) * scale**2
-        log_q = log_norm - 0.5 * (nu + ndim) * np.log1p(maha / nu)
+        log_q = log_norm + np.logaddexp(
+            log_mix[0] - 0.5 * (nu + ndim) * np.log1p(maha / nu),
+            log_mix[1] - 0.5 * (nu + ndim) * np.log1p(maha / (nu * ratio**2)))
         if coordinates is not None:
             x, log_det = coordinates.to_parameters(draws)
         else:
@@ -211,4 +288,42 @@ def importance_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
     log_z = top + math.log(total / n)
     log_z_err = float(np.std(w) * math.sqrt(n) / total)  # sd(w) / (mean(w) sqrt(n))
     return Evidence(log_z=float(log_z), log_z_err=log_z_err, n_calls=n,
-                    ess=float(total**2 / np.sum(w * w)))
+                    ess=float(total**2 / np.sum(w * w)), method="importance",
+                    pareto_k=pareto_k(log_w))
+
+
+def pareto_k(log_weights: NDArray) -> float:
+    """PSIS's k̂ of importance weights (ArviZ's generalised-Pareto fit to the largest ones);
+    infinite when no weight is finite."""
+    finite = log_weights[np.isfinite(log_weights)]
+    if finite.size < 10:
+        return math.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # ArviZ warns at high k; the caller reports it
+        _, k = az.psislw(finite - finite.max(), reff=1.0)
+    return float(k)
+
+
+def choose_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
+                    mode: str = "auto", seed: int = 0, n_live: int = 200
+                    ) -> tuple[Evidence, Evidence | None]:
+    """ln Z the way ``[sampler] evidence`` asks, and the other estimate when one was made.
+
+    ``"auto"``: importance sampling (:func:`importance_evidence`, 20,000 draws, ~0.1 s); when
+    its diagnostic fails (:attr:`Evidence.failure`), nested sampling
+    (:func:`compute_evidence`) instead, the importance estimate returned as the second value.
+    ``"nested"``: nested sampling, with importance sampling as an independent cross-check.
+
+    Returns
+    -------
+    used, other
+        The estimate to use, and the other one (None when only one was computed).
+    """
+    if mode not in ("auto", "nested"):
+        raise ValueError(f"unknown evidence mode {mode!r}")
+    cheap = importance_evidence(log_posterior, posterior_samples,
+                                np.random.default_rng(seed + 1))
+    if mode == "auto" and cheap.trusted:
+        return cheap, None
+    nested = compute_evidence(log_posterior, posterior_samples, seed=seed, n_live=n_live)
+    return nested, cheap

@@ -3,10 +3,14 @@
 ::
 
     [sampler]
-    walkers = 32              # emcee walkers (raised to 2 ndim + 2 when smaller)
+    walkers = 64              # ensemble walkers (raised to 2 ndim + 2 when smaller)
     max_steps = 20000         # stop here even if not converged (a warning says so)
+    target_ess = 1000         # bulk and tail ESS every reported quantity reaches
+    max_r_hat = 1.01          # R-hat (walkers in 4 groups) every reported quantity stays under
     seed = 0                  # everything random in the run
-    evidence = true           # nested sampling (dynesty) for log Bayes factors
+    evidence = "auto"         # ln Z for Bayes factors: "auto" (importance sampling, nested
+                              # sampling where its Pareto k fails), "nested" (dynesty
+                              # always), false (none); true means "auto"
     live_points = 200         # dynesty live points
     workers = 2               # processes fitting models side by side (default: cores)
 
@@ -41,7 +45,7 @@ class EstimateSettings:
     """Everything ``estimate`` needs beyond the model and priors."""
 
     sampler: SamplerSettings = field(default_factory=SamplerSettings)
-    evidence: bool = True
+    evidence: str = "auto"
     live_points: int = 200
     workers: int = field(default_factory=lambda: os.cpu_count() or 1)
     noise: str = "gaussian"
@@ -59,7 +63,7 @@ def _integer(value: Any, key: str, minimum: int) -> int:
 def parse_sampler(section: dict[str, Any], where: str) -> dict[str, Any]:
     """The ``[sampler]`` section as keyword arguments (see the module docstring)."""
     check_keys(section, ("walkers", "max_steps", "seed", "evidence", "live_points", "workers",
-                         "tau_multiple"), where)
+                         "tau_multiple", "target_ess", "max_r_hat"), where)
     out: dict[str, Any] = {}
     if "walkers" in section:
         out["walkers"] = _integer(section["walkers"], f"{where}.walkers", 4)
@@ -70,13 +74,33 @@ def parse_sampler(section: dict[str, Any], where: str) -> dict[str, Any]:
     if "tau_multiple" in section:
         out["tau_multiple"] = float(number(section["tau_multiple"], f"{where}.tau_multiple",
                                            positive=True))
+    if "target_ess" in section:
+        out["target_ess"] = float(number(section["target_ess"], f"{where}.target_ess",
+                                         positive=True))
+    if "max_r_hat" in section:
+        r_hat = float(number(section["max_r_hat"], f"{where}.max_r_hat"))
+        if not r_hat > 1:
+            raise ConfigError(f"{where}.max_r_hat: must be above 1, got {r_hat:g}")
+        out["max_r_hat"] = r_hat
     if "evidence" in section:
-        out["evidence"] = boolean(section["evidence"], f"{where}.evidence")
+        out["evidence"] = evidence_mode(section["evidence"], f"{where}.evidence")
     if "live_points" in section:
         out["live_points"] = _integer(section["live_points"], f"{where}.live_points", 20)
     if "workers" in section:
         out["workers"] = _integer(section["workers"], f"{where}.workers", 1)
     return out
+
+
+def evidence_mode(value: Any, key: str) -> str:
+    """``[sampler] evidence`` as one of :data:`EVIDENCE_MODES`: ``"auto"``, ``"nested"``,
+    or ``false`` (``"none"``); ``true`` (older configs: nested sampling then) means
+    ``"auto"``, which falls back to nested sampling wherever the cheap estimate fails its
+    own diagnostic."""
+    if isinstance(value, bool):
+        return "auto" if boolean(value, key) else "none"
+    if isinstance(value, str):
+        return string(value, key, ("auto", "nested"))
+    raise ConfigError(f'{key}: expected "auto", "nested", true or false, got {value!r}')
 
 
 def parse_likelihood(section: dict[str, Any], where: str) -> dict[str, Any]:

@@ -9,6 +9,7 @@ import arviz as az
 import numpy as np
 
 from drumroll.inference.comparison import LooResult
+from drumroll.inference.convergence import diagnose
 from drumroll.inference.inference_data import EXPORT
 from drumroll.inference.sampling import Chain
 
@@ -26,14 +27,13 @@ def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9) -> dict[st
     -------
     dict
         Variable → ``{"mean", "sd", "median", "hdi_low", "hdi_high", "hdi_prob", "r_hat",
-        "ess_bulk", "ess_tail"}`` (the ``summary.json`` contract; R-hat and ESS treat the
-        walkers as chains).
+        "ess_bulk", "ess_tail"}`` (the ``summary.json`` contract; ESS treats the walkers as
+        chains, R-hat groups of walkers: :mod:`~drumroll.inference.convergence`, the same
+        numbers the sampler's stopping rule checked).
     """
     posterior = idata.posterior
     hdi = az.hdi(posterior, hdi_prob=hdi_prob)
-    r_hat = az.rhat(posterior)
-    ess_bulk = az.ess(posterior, method="bulk")
-    ess_tail = az.ess(posterior, method="tail")
+    stats = diagnose({name: np.asarray(values) for name, values in posterior.data_vars.items()})
     out = {}
     for name, values in posterior.data_vars.items():
         draws = np.asarray(values)
@@ -44,9 +44,9 @@ def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9) -> dict[st
             "hdi_low": _number(hdi[name].sel(hdi="lower")),
             "hdi_high": _number(hdi[name].sel(hdi="higher")),
             "hdi_prob": hdi_prob,
-            "r_hat": _number(r_hat[name]),
-            "ess_bulk": _number(ess_bulk[name]),
-            "ess_tail": _number(ess_tail[name]),
+            "r_hat": _number(stats[name]["r_hat"]),
+            "ess_bulk": _number(stats[name]["ess_bulk"]),
+            "ess_tail": _number(stats[name]["ess_tail"]),
         }
     return out
 
@@ -76,8 +76,8 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
                 settings: Any) -> dict[str, Any]:
     """Convergence figures of one fit and warnings that say what to do.
 
-    Warnings are raised for: a chain stopped at ``max_steps`` before its autocorrelation time
-    was trusted; R-hat above the target; bulk or tail ESS below it; an acceptance fraction
+    Warnings are raised for: a chain stopped at ``max_steps`` before every reported quantity
+    met the targets; R-hat above the target; bulk or tail ESS below it; an acceptance fraction
     outside 0.1–0.7; onsets with Pareto k > 0.7 (PSIS-LOO unreliable there); a sampled
     parameter piled up against an end of its prior (the prior, not the data, decides it).
     """
@@ -85,22 +85,22 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
     model = idata.attrs.get("model", "?")
     sampled = [EXPORT[n][0] for n in EXPORT if EXPORT[n][0] in
                idata.sample_stats.attrs.get("tau_parameters", [])]
-    r_hat = az.rhat(idata.posterior)
-    ess_bulk = az.ess(idata.posterior, method="bulk")
-    ess_tail = az.ess(idata.posterior, method="tail")
+    stats = diagnose({name: np.asarray(idata.posterior[name]) for name in sampled})
     warnings: list[str] = []
     if not chain.converged:
         warnings.append(f"{model}: the run stopped at the step limit ({chain.n_steps} steps) "
-                        f"before the chain was {sampler.tau_multiple:g} autocorrelation times "
-                        "long with R-hat and ESS on target; raise [sampler] max_steps")
+                        f"before every reported quantity had ESS ≥ {sampler.target_ess:.0f} "
+                        f"and R-hat < {sampler.max_r_hat} (in a chain of at least "
+                        f"{sampler.tau_multiple:g} autocorrelation times); raise [sampler] "
+                        "max_steps")
     for name in sampled:
-        rh, eb, et = float(r_hat[name]), float(ess_bulk[name]), float(ess_tail[name])
+        rh, eb, et = (stats[name][key] for key in ("r_hat", "ess_bulk", "ess_tail"))
         if not rh < sampler.max_r_hat:
             warnings.append(f"{model}: R-hat of {name} is {rh:.4f} (target < "
                             f"{sampler.max_r_hat}): the walkers disagree; run longer")
-        if not min(eb, et) >= sampler.min_ess:
+        if not min(eb, et) >= sampler.target_ess:
             warnings.append(f"{model}: {name} has only {min(eb, et):.0f} effective samples "
-                            f"(target {sampler.min_ess:.0f}); run longer")
+                            f"(target {sampler.target_ess:.0f}); run longer")
         edge = _at_prior_edge(idata, name)
         if edge:
             warnings.append(f"{model}: {name} piles up at the {edge} end of its prior: the "
@@ -124,8 +124,11 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
         "draws": int(chain.samples.shape[0] * chain.samples.shape[1]),
         "tau_max": _number(finite_tau.max()) if finite_tau.size else None,
         "acceptance": _number(chain.acceptance),
-        "r_hat_max": _number(max((float(r_hat[n]) for n in sampled), default=float("nan"))),
-        "ess_bulk_min": _number(min((float(ess_bulk[n]) for n in sampled),
+        "r_hat_max": _number(max((stats[n]["r_hat"] for n in sampled), default=float("nan"))),
+        "ess_bulk_min": _number(min((stats[n]["ess_bulk"] for n in sampled),
                                     default=float("nan"))),
+        "ess_tail_min": _number(min((stats[n]["ess_tail"] for n in sampled),
+                                    default=float("nan"))),
+        "checks": int(chain.checks),
         "warnings": warnings,
     }
