@@ -1,7 +1,7 @@
 """Benchmark: drumroll's onset extractor against librosa on simulated recordings with truth.
 
 Usage: ``python benchmarks/onsets.py [--trials N] [--first-seed S] [--jitter-ms J] [--quick]
-[--no-memory] [--no-peers] [--no-real-hits | --real-hits-only]``
+[--no-memory] [--no-peers] [--no-real-hits | --real-hits-only] [--no-phone | --phone-only]``
 
 Per condition: F1 at ±2 ms (misses counted only for impacts with truth ``local_snr_db >= 0``;
 a detection matching no impact is a false positive; one matching an inaudible impact is
@@ -14,25 +14,42 @@ roll (one hit, two, three unrelated ones), which should give none. Then the same
 layers, the Sonic Pi snare in two, claves for a ball) in two measured rooms, scored the same
 way (``--no-real-hits`` skips this grid, ``--real-hits-only`` runs nothing else). Then
 throughput on a 60 s 44.1 kHz file (best of five, one core) and peak memory (tracemalloc and
-peak RSS of a fresh subprocess) on 10- and 60-minute files written blockwise.
+peak RSS of a fresh subprocess) on 10- and 60-minute files written blockwise, and on a
+60-minute AAC .m4a (decoded by FFmpeg into a temporary file).
+
+Phone recordings (``--phone-only`` runs nothing else, ``--no-phone`` skips them): the corpus
+and the real ping-pong encoded as a phone, a camera or a messaging app would (AAC 128 and
+64 kb/s, Opus 64 and 32 kb/s, MP3 128 kb/s, AMR-NB 12.2 kb/s at 8 kHz, ALAC as a check),
+resampled to 16 and 8 kHz, and through a phone's automatic gain control (alone and before AAC
+64 kb/s), each scored side by side with the lossless original by the corpus's rules (F1, MAD
+against the truth, first impact found) and onset by onset against the original's onsets: the
+share found within 1 ms, the median shift, the decoded audio's offset against the original
+(cross-correlation: the priming taken off, or not) and the spread of the shifts (1.4826 x MAD,
+an sd), which is the timing floor ``drumroll.audio.timing`` adds to ``sigma_s``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
+import warnings
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
 import soundfile as sf
+from scipy import signal
 
-from drumroll.errors import AudioError
+from drumroll.audio import read_audio
+from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets import detect
 from drumroll.simulation import Disturbances, HitBank, MeasuredRoom, Room, render, render_hits
+from drumroll.simulation.phone import phone_agc
 
 
 def roll_truth(rng: np.random.Generator, jitter_s: float = 0.0
@@ -232,8 +249,8 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
     return summary
 
 
-def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002
-                 ) -> dict[str, float] | None:
+def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002, *,
+                 tables: dict | None = None, verbose: bool = True) -> dict[str, float] | None:
     """Score the extractor on recordings made by others: every ``<name>.truth.json`` in
     ``folder`` whose name matches ``pattern``, with its recording beside it
     (``onset_times_s``, ``local_snr_db``; with
@@ -242,8 +259,9 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002
     difference within 25 ms: it changes no flight); F1 at ±2 ms over the impacts with local
     SNR >= 0 dB (a detection matching no impact is a false positive); the timing MAD;
     whether the first impact is found and every bounce number names the right impact; and
-    each error (less the latency) over its own sigma_s. Prints a row per recording, returns
-    the pooled figures (None without recordings)."""
+    each error (less the latency) over its own sigma_s. Prints a row per recording (with
+    ``verbose``), returns the pooled figures (None without recordings); ``tables``, if given,
+    receives each recording's onset table by name."""
     rows, zs, mads = [], [], []
     pooled = np.zeros(3, dtype=int)
     first_ok = numbered_ok = 0
@@ -259,6 +277,8 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002
         try:
             table = detect(audio[0])
             det, bounce, sigma = table.time_s, table.bounce, table.sigma_s
+            if tables is not None:
+                tables[name] = table
         except AudioError:
             det, bounce, sigma = np.zeros(0), np.zeros(0, dtype=int), np.zeros(0)
         lag = np.array([d - t[np.argmin(np.abs(t - d))] for d in det])
@@ -291,6 +311,8 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002
             zs.append(np.array([(det[j] - t[i]) / sigma[j] for i, j in match.items()]))
         f1 = 2 * tp / max(2 * tp + fp + fn, 1)
         rows.append(name)
+        if not verbose:
+            continue
         print(f"{name:30s} F1 {f1:.3f} (tp {tp} fp {fp} fn {fn}), MAD {1e3 * mad:.3f} ms, "
               f"first impact {'found' if 0 in match else 'MISSED'}, numbering "
               f"{'right' if numbered else 'WRONG'}")
@@ -301,6 +323,8 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002
     out = {"f1": 2 * tp / max(2 * tp + fp + fn, 1), "mad_ms": 1e3 * float(np.nanmedian(mads)),
            "within_1": float(np.mean(z <= 1)), "within_2": float(np.mean(z <= 2)),
            "first": first_ok, "numbered": numbered_ok, "n": len(rows)}
+    if not verbose:
+        return out
     print(f"pooled over {len(rows)}: F1 {out['f1']:.3f} (tp {tp} fp {fp} fn {fn}), median MAD "
           f"{out['mad_ms']:.3f} ms, first impact found {first_ok}/{len(rows)}, numbering right "
           f"{numbered_ok}/{len(rows)}; sigma_s: within 1 sigma {out['within_1']:.3f}, within 2 "
@@ -319,6 +343,158 @@ def side_by_side(parts: dict[str, dict]) -> None:
         print(f"  {label:34s} {row['f1']:6.3f} {row['mad_ms']:7.3f} "
               f"{row.get('within_1', float('nan')):6.3f} {row.get('within_2', float('nan')):6.3f}"
               f"  {note}")
+
+
+#: Phone conditions: label -> (kind, argument). ``encode``: a preset of
+#: :data:`drumroll.audio.encode.PRESETS`; ``rate``: resampled (16-bit WAV); ``agc``: a phone's
+#: automatic gain control (:func:`drumroll.simulation.phone.phone_agc`), then the preset if any.
+PHONE_CONDITIONS = {
+    "ALAC .m4a (lossless)": ("encode", "alac"),
+    "AAC 128 kb/s .m4a": ("encode", "aac-128"),
+    "AAC 64 kb/s .m4a": ("encode", "aac-64"),
+    "Opus 64 kb/s .webm": ("encode", "opus-64"),
+    "Opus 32 kb/s .webm": ("encode", "opus-32"),
+    "MP3 128 kb/s": ("encode", "mp3-128"),
+    "Vorbis q0.5 .ogg": ("vorbis", 0.5),
+    "AMR-NB 12.2 kb/s, 8 kHz .3gp": ("encode", "amr-nb"),
+    "PCM at 16 kHz": ("rate", 16000),
+    "PCM at 8 kHz": ("rate", 8000),
+    "phone AGC": ("agc", None),
+    "phone AGC + AAC 64 kb/s": ("agc", "aac-64"),
+}
+
+
+def make_phone_file(source: Path, out: Path, kind: str, arg) -> Path:
+    """``source`` made into the phone condition ``(kind, arg)``, written into folder ``out``
+    under the same stem."""
+    from drumroll.audio.encode import PRESETS, encode
+
+    x, sr = sf.read(source, always_2d=True)
+    x = x[:, 0] if x.shape[1] == 1 else x
+    if kind == "rate":
+        ratio = Fraction(arg, sr)
+        y = signal.resample_poly(x, ratio.numerator, ratio.denominator, axis=0)
+        path = out / f"{source.stem}.wav"
+        sf.write(path, np.clip(y, -1, 1), arg, subtype="PCM_16")
+        return path
+    if kind == "vorbis":  # soundfile's Vorbis (libvorbis), at a quality (about 110 kb/s mono)
+        path = out / f"{source.stem}.ogg"
+        sf.write(path, x, sr, format="OGG", subtype="VORBIS", compression_level=1 - arg)
+        return path
+    if kind == "agc":
+        x = phone_agc(x, sr)
+        if arg is None:
+            path = out / f"{source.stem}.wav"
+            sf.write(path, x, sr, subtype="PCM_16")
+            return path
+    return encode(x, sr, out / f"{source.stem}{PRESETS[arg].suffix}", arg)
+
+
+def decoded_offset_ms(original: Path, coded: Path) -> float:
+    """The decoded file's time offset against the original (ms; the cross-correlation peak,
+    parabolic interpolation): the encoder's priming left in, or too much taken off."""
+    x, sr = read_audio(original, check=False)
+    y, rate = read_audio(coded, check=False)
+    if rate != sr:
+        ratio = Fraction(rate, sr)
+        x = signal.resample_poly(x, ratio.numerator, ratio.denominator)
+    n = min(x.size, y.size)
+    cc = signal.correlate(y[:n], x[:n], method="fft")
+    k = int(np.argmax(cc))
+    a, b, c = cc[k - 1], cc[k], cc[k + 1]
+    den = a - 2 * b + c
+    return 1e3 * (k - (n - 1) + (0.5 * (a - c) / den if den else 0.0)) / rate
+
+
+def onset_shifts(reference: dict, coded: dict, pair_s: float = 0.003
+                 ) -> tuple[int, int, np.ndarray, np.ndarray]:
+    """Each reference onset against the nearest coded onset of the same recording: how many
+    reference onsets, how many found within 1 ms, the shifts within ``pair_s`` (s) and the
+    same less their recording's median (the spread a codec adds)."""
+    total = found = 0
+    raw, centred = [], []
+    for name, ref in reference.items():
+        total += len(ref)
+        table = coded.get(name)
+        if table is None or len(table) == 0 or len(ref) == 0:
+            continue
+        d = table.time_s[None, :] - ref.time_s[:, None]
+        s = d[np.arange(d.shape[0]), np.abs(d).argmin(axis=1)]
+        found += int(np.count_nonzero(np.abs(s) <= 1e-3))
+        s = s[np.abs(s) <= pair_s]
+        if s.size:
+            raw.append(s)
+            centred.append(s - np.median(s))
+    def joined(parts: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    return total, found, joined(raw), joined(centred)
+
+
+def run_phone(sources: dict[str, tuple[Path, str]]) -> dict[str, dict[str, dict]]:
+    """Every recording of each source ``label -> (folder, pattern)`` through every phone
+    condition, scored side by side with its lossless original; prints the table and the
+    pooled timing floors. Returns ``source -> condition -> row``."""
+    out: dict[str, dict[str, dict]] = {}
+    pooled: dict[str, list[np.ndarray]] = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DrumrollWarning)
+        for label, (folder, pattern) in sources.items():
+            print(f"\nphone recordings: {label} ({folder}/{pattern})", flush=True)
+            reference: dict = {}
+            row = score_folder(folder, pattern, tables=reference, verbose=False)
+            if row is None:
+                continue
+            rows = {"lossless original": dict(row, found=1.0, shift_ms=0.0, offset_ms=0.0,
+                                              sd_ms=0.0)}
+            for condition, (kind, arg) in PHONE_CONDITIONS.items():
+                with tempfile.TemporaryDirectory() as tmp:
+                    tmp_dir = Path(tmp)
+                    offsets = []
+                    for truth in sorted(folder.glob(pattern + ".truth.json")):
+                        name = truth.name[: -len(".truth.json")]
+                        audio = [p for p in folder.glob(name + ".*") if p.suffix.lower() in
+                                 (".wav", ".flac", ".ogg", ".mp3")]
+                        if not audio:
+                            continue
+                        shutil.copy(truth, tmp_dir / truth.name)
+                        coded = make_phone_file(audio[0], tmp_dir, kind, arg)
+                        offsets.append(decoded_offset_ms(audio[0], coded))
+                    tables: dict = {}
+                    scored = score_folder(tmp_dir, "*", tables=tables, verbose=False) or {}
+                total, found, raw, centred = onset_shifts(reference, tables)
+                pooled.setdefault(condition, []).append((total, found, centred))
+                sd = 1.4826 * float(np.median(np.abs(centred))) if centred.size else np.nan
+                rows[condition] = dict(scored, found=found / max(total, 1),
+                                       shift_ms=1e3 * float(np.median(raw)) if raw.size
+                                       else np.nan,
+                                       offset_ms=float(np.median(np.abs(offsets))),
+                                       sd_ms=1e3 * sd, n_onsets=total)
+                print(f"  {condition:30s} done", flush=True)
+            out[label] = rows
+    print("\nphone recordings side by side with their lossless originals (F1 at +-2 ms and MAD "
+          "against the truth; then each onset against the original's: found within 1 ms, "
+          "median shift, |offset| of the decoded audio by cross-correlation, spread of the "
+          "shifts as an sd = 1.4826 MAD)")
+    print(f"  {'recordings':26s} {'condition':30s} {'F1':>6s} {'MAD ms':>7s} {'first':>6s} "
+          f"{'found':>6s} {'shift ms':>9s} {'offset ms':>9s} {'sd ms':>6s}")
+    for label, rows in out.items():
+        for condition, r in rows.items():
+            print(f"  {label:26s} {condition:30s} {r.get('f1', np.nan):6.3f} "
+                  f"{r.get('mad_ms', np.nan):7.3f} {r.get('first', 0):>2d}/{r.get('n', 0):<3d} "
+                  f"{r['found']:6.3f} {r['shift_ms']:9.3f} {r['offset_ms']:9.4f} "
+                  f"{r['sd_ms']:6.3f}")
+    print("\ntiming floors, pooled over every source (sd = 1.4826 MAD of the shifts, less each "
+          "recording's median; drumroll.audio.timing holds them)")
+    for condition, parts in pooled.items():
+        c = np.concatenate([p[2] for p in parts])
+        total, found = sum(p[0] for p in parts), sum(p[1] for p in parts)
+        if c.size:
+            mad = float(np.median(np.abs(c)))
+            print(f"  {condition:30s} MAD {1e3 * mad:.3f} ms, sd {1e3 * 1.4826 * mad:.3f} ms "
+                  f"({c.size} onsets); moved by more than 1 ms or lost: "
+                  f"{1 - found / max(total, 1):.3f} of {total}")
+    return out
 
 
 def no_roll(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -393,7 +569,7 @@ print(peak, base, hwm())
 """
 
 
-def memory() -> None:
+def memory(m4a: bool = True) -> None:
     rng = np.random.default_rng(6)
     times, speeds = roll_truth(rng)
     r = render(times, speeds, sample_rate=44100, disturbances=Disturbances(snr_db=30), rng=rng)
@@ -418,7 +594,46 @@ def memory() -> None:
             else:
                 mb = out.stderr[-200:]
             print(f"memory: {minutes} min file: {mb}, {el:.1f} s")
+            if minutes == 60 and m4a:
+                _memory_m4a(path, d)
             path.unlink()
+
+
+def _memory_m4a(wav: Path, folder: str) -> None:
+    """Peak memory of detect() on an hour-long AAC .m4a (the WAV above, encoded blockwise)."""
+    import av
+
+    path = Path(folder) / "60min.m4a"
+    t0 = time.perf_counter()
+    with sf.SoundFile(wav) as f, av.open(str(path), "w") as out:
+        stream = out.add_stream("aac", rate=f.samplerate, layout="mono")
+        stream.bit_rate = 128_000
+        pos = 0
+        while True:
+            block = f.read(1 << 16, dtype="float32")
+            if block.size == 0:
+                break
+            frame = av.AudioFrame.from_ndarray(block[None, :], format="fltp", layout="mono")
+            frame.sample_rate, frame.pts = f.samplerate, pos
+            frame.time_base = Fraction(1, f.samplerate)
+            pos += block.size
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode(None))
+    made = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", _MEM_CHILD, str(path)], capture_output=True,
+                         text=True, check=False)
+    el = time.perf_counter() - t0
+    words = out.stdout.split()
+    if len(words) == 3:
+        peak, base, rss = (int(w) for w in words)
+        mb = (f"peak traced {peak / 2**20:.1f} MB, peak RSS {rss / 1024:.0f} MB "
+              f"({base / 1024:.0f} MB after imports)")
+    else:
+        mb = out.stderr[-300:]
+    print(f"memory: 60 min AAC 128 kb/s .m4a ({path.stat().st_size / 1e6:.0f} MB, encoded in "
+          f"{made:.0f} s): {mb}, {el:.1f} s (decoding into a temporary file included)")
+    path.unlink()
 
 
 def main() -> None:
@@ -441,9 +656,20 @@ def main() -> None:
                       help="skip the grid of real recorded hits in measured rooms")
     real.add_argument("--real-hits-only", action="store_true",
                       help="only the grid of real recorded hits in measured rooms")
+    phone = ap.add_mutually_exclusive_group()
+    phone.add_argument("--no-phone", action="store_true",
+                       help="skip the phone recordings (codecs, rates, AGC)")
+    phone.add_argument("--phone-only", action="store_true",
+                       help="only the phone recordings (codecs, rates, AGC)")
     args = ap.parse_args()
     jitter = 1e-3 * args.jitter_ms
     parts: dict[str, dict] = {}
+    sources = {"real ping-pong": (REAL, "pingpong")}
+    if args.corpus.is_dir():
+        sources = {f"{args.corpus.name} (12 rolls)": (args.corpus, "*"), **sources}
+    if args.phone_only:
+        run_phone(sources)
+        return
     if args.real_hits_only:
         run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed, jitter)
         return
@@ -466,6 +692,8 @@ def main() -> None:
         if row:
             parts["real ping-pong (data/pingpong.wav)"] = row
         side_by_side(parts)
+    if not args.no_phone:
+        run_phone(sources)
     throughput()
     if not args.no_memory:
         memory()

@@ -459,7 +459,7 @@ def test_timing_floors(folder, pingpong):
         assert floor is not None and "\n" not in floor.message and str(path) in floor.message
         floors[preset] = floor.sd_s
     assert floors["aac-64"] >= floors["aac-128"] and floors["opus-32"] >= floors["opus-64"]
-    assert {codec for codec, _, _ in CODEC_FLOORS} >= {"aac", "opus", "mp3", "amrnb"}
+    assert {row[0] for row in CODEC_FLOORS} >= {"aac", "opus", "mp3", "amrnb"}
 
 
 def test_the_bundled_phone_recording(folder, capsys, wav_onsets):

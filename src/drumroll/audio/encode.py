@@ -41,8 +41,8 @@ class Preset:
         Also write a small video track first, as a camera does (the audio is stream 1 of the
         file and audio stream 0).
     channels
-        At least this many channels (FFmpeg's Vorbis encoder takes only two): a mono
-        recording is written on each.
+        The channels the codec takes, if it takes only one count (AMR one, FFmpeg's Vorbis
+        encoder two): a recording is mixed down to mono, or its mono written on each.
     description
         What it is, in words.
     """
@@ -52,7 +52,7 @@ class Preset:
     bit_rate: int | None = None
     sample_rate: int | None = None
     video: bool = False
-    channels: int = 1
+    channels: int | None = None
     description: str = ""
 
 
@@ -80,8 +80,9 @@ PRESETS: dict[str, Preset] = {
     "vorbis-webm": Preset(".webm", "vorbis", 128_000, channels=2, description="Vorbis in "
                           ".webm (stereo: FFmpeg's Vorbis encoder takes two channels)"),
     "mp3-128": Preset(".mp3", "libmp3lame", 128_000, description="MP3 128 kb/s"),
-    "amr-nb": Preset(".3gp", "libopencore_amrnb", 12_200, 8_000, description="AMR-NB "
-                     "12.2 kb/s at 8 kHz in .3gp, a phone's voice recorder"),
+    "amr-nb": Preset(".3gp", "libopencore_amrnb", 12_200, 8_000, channels=1,
+                     description="AMR-NB 12.2 kb/s at 8 kHz in .3gp (mono), a phone's voice "
+                     "recorder"),
 }
 
 #: Video written beside the audio: tiny black frames (what is measured is the audio).
@@ -142,8 +143,8 @@ def encode(samples: np.ndarray, sample_rate: int, path: str | os.PathLike[str],
     for x in (samples, *extra_streams):
         x = np.asarray(x, dtype=np.float64)
         x = x[:, None] if x.ndim == 1 else x
-        if x.shape[1] < chosen.channels:
-            x = np.repeat(x[:, :1], chosen.channels, axis=1)
+        if chosen.channels is not None and x.shape[1] != chosen.channels:
+            x = np.repeat(x.mean(axis=1, keepdims=True), chosen.channels, axis=1)
         tracks.append(_resample(x, int(sample_rate), rate).astype(np.float32))
     options = {"movflags": "+faststart"} if faststart else {}
     with av.open(str(path), "w", options=options) as out:
