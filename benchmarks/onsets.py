@@ -569,7 +569,7 @@ print(peak, base, hwm())
 """
 
 
-def memory(m4a: bool = True) -> None:
+def memory() -> None:
     rng = np.random.default_rng(6)
     times, speeds = roll_truth(rng)
     r = render(times, speeds, sample_rate=44100, disturbances=Disturbances(snr_db=30), rng=rng)
@@ -594,46 +594,58 @@ def memory(m4a: bool = True) -> None:
             else:
                 mb = out.stderr[-200:]
             print(f"memory: {minutes} min file: {mb}, {el:.1f} s")
-            if minutes == 60 and m4a:
-                _memory_m4a(path, d)
             path.unlink()
 
 
-def _memory_m4a(wav: Path, folder: str) -> None:
-    """Peak memory of detect() on an hour-long AAC .m4a (the WAV above, encoded blockwise)."""
+def memory_m4a(minutes: int = 60) -> None:
+    """Peak memory of detect() on an hour-long phone recording: quiet noise with the real
+    ping-pong dropped every ten minutes, as a 16-bit WAV and as an AAC 128 kb/s .m4a (both
+    written blockwise), each in a fresh subprocess. The .m4a is decoded by FFmpeg into a
+    temporary file first: the difference between the two is what decoding costs."""
     import av
 
-    path = Path(folder) / "60min.m4a"
-    t0 = time.perf_counter()
-    with sf.SoundFile(wav) as f, av.open(str(path), "w") as out:
-        stream = out.add_stream("aac", rate=f.samplerate, layout="mono")
-        stream.bit_rate = 128_000
-        pos = 0
-        while True:
-            block = f.read(1 << 16, dtype="float32")
-            if block.size == 0:
-                break
-            frame = av.AudioFrame.from_ndarray(block[None, :], format="fltp", layout="mono")
-            frame.sample_rate, frame.pts = f.samplerate, pos
-            frame.time_base = Fraction(1, f.samplerate)
-            pos += block.size
-            out.mux(stream.encode(frame))
-        out.mux(stream.encode(None))
-    made = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", _MEM_CHILD, str(path)], capture_output=True,
-                         text=True, check=False)
-    el = time.perf_counter() - t0
-    words = out.stdout.split()
-    if len(words) == 3:
-        peak, base, rss = (int(w) for w in words)
-        mb = (f"peak traced {peak / 2**20:.1f} MB, peak RSS {rss / 1024:.0f} MB "
-              f"({base / 1024:.0f} MB after imports)")
-    else:
-        mb = out.stderr[-300:]
-    print(f"memory: 60 min AAC 128 kb/s .m4a ({path.stat().st_size / 1e6:.0f} MB, encoded in "
-          f"{made:.0f} s): {mb}, {el:.1f} s (decoding into a temporary file included)")
-    path.unlink()
+    x, sr = sf.read(REAL / "pingpong.wav")
+    rng = np.random.default_rng(8)
+    block = 1 << 16
+    total = minutes * 60 * sr
+    drops = {int((300 + 600 * k) * sr) for k in range(minutes // 10)}
+    with tempfile.TemporaryDirectory() as d:
+        wav, m4a = Path(d) / "long.wav", Path(d) / "long.m4a"
+        t0 = time.perf_counter()
+        with sf.SoundFile(wav, "w", sr, 1, subtype="PCM_16") as f, \
+                av.open(str(m4a), "w") as out:
+            stream = out.add_stream("aac", rate=sr, layout="mono")
+            stream.bit_rate = 128_000
+            for pos in range(0, total, block):
+                n = min(block, total - pos)
+                chunk = 1e-3 * rng.standard_normal(n)
+                for at in drops:
+                    lo, hi = max(at, pos), min(at + x.size, pos + n)
+                    if hi > lo:
+                        chunk[lo - pos: hi - pos] += x[lo - at: hi - at]
+                f.write(chunk)
+                frame = av.AudioFrame.from_ndarray(chunk.astype(np.float32)[None, :],
+                                                   format="fltp", layout="mono")
+                frame.sample_rate, frame.pts = sr, pos
+                frame.time_base = Fraction(1, sr)
+                out.mux(stream.encode(frame))
+            out.mux(stream.encode(None))
+        print(f"memory: {minutes} min of a phone recording ({len(drops)} ping-pong rolls), "
+              f"written in {time.perf_counter() - t0:.0f} s: WAV "
+              f"{wav.stat().st_size / 1e6:.0f} MB, .m4a {m4a.stat().st_size / 1e6:.0f} MB")
+        for path in (wav, m4a):
+            t0 = time.perf_counter()
+            out = subprocess.run([sys.executable, "-c", _MEM_CHILD, str(path)],
+                                 capture_output=True, text=True, check=False)
+            el = time.perf_counter() - t0
+            words = out.stdout.split()
+            if len(words) == 3:
+                peak, base, rss = (int(w) for w in words)
+                mb = (f"peak traced {peak / 2**20:.1f} MB, peak RSS {rss / 1024:.0f} MB "
+                      f"({base / 1024:.0f} MB after imports)")
+            else:
+                mb = out.stderr[-300:]
+            print(f"memory: {minutes} min {path.suffix}: {mb}, {el:.1f} s")
 
 
 def main() -> None:
@@ -697,6 +709,7 @@ def main() -> None:
     throughput()
     if not args.no_memory:
         memory()
+        memory_m4a()
 
 
 if __name__ == "__main__":

@@ -80,7 +80,8 @@ class MeasuredRoom:
         Parameters
         ----------
         path
-            The impulse response (any file soundfile reads; channels are averaged).
+            The impulse response (any recording :mod:`drumroll.audio` reads; channels are
+            averaged).
         sample_rate
             Rate to resample to (the rendering's).
         wet_db
