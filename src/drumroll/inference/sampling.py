@@ -1,10 +1,10 @@
 """Ensemble MCMC (differential-evolution moves) until every reported quantity is known to
 its targets: bulk and tail ESS and R-hat.
 
-The moves are emcee's red-blue differential evolution (ter Braak 2006; Nelson et al. 2013),
-run in a loop of a few array operations per half-step instead of emcee's per-step
-bookkeeping (state objects, blobs, backend, move selection): around a model that costs
-~0.1 ms per batch of walkers, that bookkeeping was as much again.
+emcee's :class:`~emcee.EnsembleSampler` moves the walkers by red-blue differential evolution
+(ter Braak 2006; Nelson et al. 2013), each half-ensemble one batched call of the target, in
+the sampler coordinates of :mod:`~drumroll.inference.coordinates`; the run goes on in chunks
+until the draws it would report meet the targets.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ class SamplerSettings:
         at most twice as far as the last one: three or four checks a run.
     """
 
-    walkers: int = 64
+    walkers: int = 128
     max_steps: int = 20_000
     target_ess: float = 1000.0
     max_r_hat: float = 1.01
@@ -220,88 +220,32 @@ def _negative_with_gradient(target: SamplerTarget, scale: NDArray
     return negative
 
 
-#: The moves: differential evolution with the optimal scale γ = 2.38 / sqrt(2 ndim) and, one
-#: step in ten (:data:`JUMP_PROBABILITY`), γ = 1, which jumps between modes (ter Braak 2006);
-#: γ is jittered by a relative 1e-5 (emcee's DEMove). emcee 3.1.6's DESnookerMove normalises
-#: its direction by sqrt(|δ|) instead of |δ| and halves the Jacobian term, so it does not
-#: keep the target invariant (on a 6-d Gaussian alone it shrinks the variances by ~30 %;
-#: dfm/emcee#531); it is not used.
+#: The moves (emcee's :class:`~emcee.moves.DEMove`): differential evolution with the optimal
+#: scale γ = 2.38 / sqrt(2 ndim) and, one step in ten (:data:`JUMP_PROBABILITY`), γ = 1, which
+#: jumps between modes (ter Braak 2006). emcee 3.1.6's DESnookerMove normalises its direction
+#: by sqrt(|δ|) instead of |δ| and halves the Jacobian term, so it does not keep the target
+#: invariant (on a 6-d Gaussian alone it shrinks the variances by ~30 %; dfm/emcee#531); it is
+#: not used.
 JUMP_PROBABILITY = 0.1
-GAMMA_JITTER = 1e-5
 
 
-class Ensemble:
-    """Walkers moved by red-blue differential evolution, their path kept in x.
+def moves() -> list:
+    """emcee's red-blue differential-evolution moves with their weights (see above)."""
+    import emcee
 
-    Each step the walkers are split at random into two halves; each half in turn proposes
-    z + γ (z_a − z_b) with a and b two distinct walkers of the other half (already moved, for
-    the second half), and accepts by Metropolis. Only the complement enters a proposal, so
-    each half-step leaves the target invariant (Goodman & Weare 2010's red-blue argument);
-    each half is one batched call of the target.
+    return [(emcee.moves.DEMove(), 1.0 - JUMP_PROBABILITY),
+            (emcee.moves.DEMove(gamma0=1.0), JUMP_PROBABILITY)]
 
-    Parameters
-    ----------
-    target
-        The density in z, with :meth:`SamplerTarget.evaluate`'s ``(density, x, log p)``.
-    start
-        Walkers' starting z, ``(walkers, ndim)``, each at a finite density.
-    rng
-        Source of every random choice of the moves.
-    """
 
-    def __init__(self, target: Callable[[NDArray], tuple[NDArray, NDArray, NDArray]],
-                 start: NDArray, rng: np.random.Generator) -> None:
-        self.target, self.rng = target, rng
-        self.z = np.array(start, float)
-        self.density, self.x, self.log_p = target(self.z)
-        self.walkers, self.ndim = self.z.shape
-        self.gamma = 2.38 / math.sqrt(2 * self.ndim)
-        self.accepted = np.zeros(self.walkers, int)
-        self.steps = 0
-        self.path = np.empty((0, self.walkers, self.ndim))
-        self.path_log_p = np.empty((0, self.walkers))
+def ensemble_sampler(target: Callable[[NDArray], NDArray], walkers: int, ndim: int,
+                     seed: int):
+    """An :class:`emcee.EnsembleSampler` of ``target`` (one batched call per half-ensemble),
+    seeded by ``seed`` and moved by :func:`moves`."""
+    import emcee
 
-    def run(self, steps: int) -> None:
-        """Advance every walker ``steps`` steps, appending their x and log p to the path."""
-        start = self.steps
-        needed = start + steps
-        if needed > len(self.path):  # grow geometrically: few copies over a run
-            size = max(needed, 2 * len(self.path))
-            path = np.empty((size, self.walkers, self.ndim))
-            path[:start] = self.path[:start]
-            log_p = np.empty((size, self.walkers))
-            log_p[:start] = self.path_log_p[:start]
-            self.path, self.path_log_p = path, log_p
-        rng, z, walkers = self.rng, self.z, self.walkers
-        half = walkers // 2
-        for step in range(start, needed):
-            gamma = 1.0 if rng.random() < JUMP_PROBABILITY else self.gamma
-            order = rng.permutation(walkers)
-            for moving, other in ((order[:half], order[half:]), (order[half:], order[:half])):
-                n_moving, n_other = moving.size, other.size
-                a = rng.integers(n_other, size=n_moving)
-                b = rng.integers(n_other - 1, size=n_moving)
-                b += b >= a  # two distinct walkers of the other half
-                scale = gamma * (1.0 + GAMMA_JITTER * rng.standard_normal(n_moving))
-                proposal = z[moving] + scale[:, None] * (z[other[b]] - z[other[a]])
-                density, x, log_p = self.target(proposal)
-                accept = density - self.density[moving] > np.log(rng.random(n_moving))
-                if accept.any():
-                    chosen = moving[accept]
-                    z[chosen] = proposal[accept]
-                    self.density[chosen] = density[accept]
-                    self.x[chosen] = x[accept]
-                    self.log_p[chosen] = log_p[accept]
-                    self.accepted[chosen] += 1
-            self.path[step] = self.x
-            self.path_log_p[step] = self.log_p
-        self.steps = needed
-
-    def draws(self, burn: int, thin: int) -> tuple[NDArray, NDArray]:
-        """``(walkers, draws, ndim)`` parameters and ``(walkers, draws)`` log posterior after
-        ``burn`` steps, every ``thin``-th step, the last step kept (as emcee's ``get_chain``)."""
-        keep = slice(burn + thin - 1, self.steps, thin)
-        return (np.swapaxes(self.path[keep], 0, 1), self.path_log_p[keep].T)
+    sampler = emcee.EnsembleSampler(walkers, ndim, target, moves=moves(), vectorize=True)
+    sampler.random_state = np.random.RandomState(seed).get_state()  # emcee draws from a RandomState
+    return sampler
 
 
 def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
@@ -312,7 +256,7 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     The walkers move in :class:`~drumroll.inference.coordinates.SamplerCoordinates` (h
     through q = ω_C/γ, the jitter and t_B through their logarithms, a sampled T0 through its
     non-centred offset), where the posterior is nearly Gaussian: with the
-    differential-evolution moves of :class:`Ensemble` the autocorrelation time falls from
+    differential-evolution moves of :func:`moves` the autocorrelation time falls from
     ~90 to ~25–40 steps. Every diagnostic (τ, R-hat, ESS) and every output is computed on the
     model's own parameters. The walkers start in a ball around the highest point found
     (:func:`find_start`). At each check ``3 τ_max`` steps are discarded as burn-in and the
@@ -339,32 +283,47 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     target = SamplerTarget(log_posterior, coordinates)
     mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
     start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
-    ensemble = Ensemble(target.evaluate, start,
-                        np.random.default_rng(np.random.SeedSequence([settings.seed, 1])))
-    converged, checks = False, 0
+    sampler = ensemble_sampler(target, walkers, ndim,
+                               int(np.random.SeedSequence([settings.seed, 1]).generate_state(1)[0]))
+    converged, checks, steps, state = False, 0, 0, start
     until = min(settings.check_every, settings.max_steps)
     while True:
-        ensemble.run(until - ensemble.steps)
+        state = sampler.run_mcmc(state, until - steps, progress=False)
+        steps = until
         checks += 1
         if progress is not None:
-            progress(ensemble.steps, settings.max_steps)
-        tau = integrated_time(ensemble.path[:ensemble.steps])
-        burn, thin = _burn_and_thin(tau, ensemble.steps)
-        samples, log_prob = ensemble.draws(burn, thin)
+            progress(steps, settings.max_steps)
+        # τ of the walk in z, where it moves: burn-in and thinning are about its mixing.
+        tau = integrated_time(sampler.get_chain())
+        burn, thin = _burn_and_thin(tau, steps)
+        samples, log_prob = parameter_draws(sampler, coordinates, burn, thin)
         variables = (reported(samples) if reported is not None
                      else {str(i): samples[..., i] for i in range(ndim)})
         stats = diagnose(variables)
-        long_enough = ensemble.steps >= settings.tau_multiple * np.nanmax(tau)
+        long_enough = steps >= settings.tau_multiple * np.nanmax(tau)
         if long_enough and _targets_met(stats, settings):
             converged = True
             break
-        if ensemble.steps >= settings.max_steps:
+        if steps >= settings.max_steps:
             break
-        until = min(_next_check(stats, settings, tau, ensemble.steps, burn), settings.max_steps)
+        until = min(_next_check(stats, settings, tau, steps, burn), settings.max_steps)
     return Chain(samples=samples, log_prob=log_prob, tau=tau,
-                 acceptance=float(np.mean(ensemble.accepted) / ensemble.steps),
-                 n_steps=ensemble.steps, burn=burn, thin=thin, converged=converged,
+                 acceptance=float(np.mean(sampler.acceptance_fraction)),
+                 n_steps=steps, burn=burn, thin=thin, converged=converged,
                  mode=mode, checks=checks)
+
+
+def parameter_draws(sampler, coordinates: SamplerCoordinates, burn: int, thin: int
+                    ) -> tuple[NDArray, NDArray]:
+    """The walkers' draws after ``burn`` steps, every ``thin``-th (the last kept), as the
+    model's parameters x ``(walkers, draws, ndim)`` and their log posterior ``(walkers,
+    draws)`` (the density in z less the map's log Jacobian)."""
+    z = sampler.get_chain(discard=burn, thin=thin)
+    density = sampler.get_log_prob(discard=burn, thin=thin)
+    steps, walkers, ndim = z.shape
+    x, log_det = coordinates.to_parameters(z.reshape(-1, ndim))
+    log_p = density - log_det.reshape(steps, walkers)
+    return np.swapaxes(x.reshape(steps, walkers, ndim), 0, 1), log_p.T
 
 
 def _burn_and_thin(tau: NDArray, n_steps: int) -> tuple[int, int]:

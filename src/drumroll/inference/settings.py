@@ -3,7 +3,7 @@
 ::
 
     [sampler]
-    walkers = 64              # ensemble walkers (raised to 2 ndim + 2 when smaller)
+    walkers = 128             # ensemble walkers (raised to 2 ndim + 2 when smaller)
     max_steps = 20000         # stop here even if not converged (a warning says so)
     target_ess = 1000         # bulk and tail ESS every reported quantity reaches
     max_r_hat = 1.01          # R-hat (walkers in 4 groups) every reported quantity stays under

@@ -104,20 +104,21 @@ def new_figure(figsize: tuple[float, float], **kwargs: Any):
 
 
 def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
-    """Write ``fig`` as a PNG at :data:`DPI`, atomically, then free its memory.
+    """Write ``fig`` as a PNG at :data:`DPI`, atomically.
+
+    The figure is not cleared afterwards: it belongs to no pyplot manager, so it is freed with
+    its last reference, and clearing a figure rebuilds every axis's ticks (a third of the
+    corner plot's time).
 
     Raises
     ------
     drumroll.errors.DrumrollError
         If ``path`` exists and ``overwrite`` is false, or its folder does not exist.
     """
-    try:
-        with style():
-            return fileio.write_with(
-                path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white"),
-                overwrite=overwrite)
-    finally:
-        fig.clear()
+    with style():
+        return fileio.write_with(
+            path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white"),
+            overwrite=overwrite)
 
 
 def model_color(model: str, index: int = 0) -> str:
