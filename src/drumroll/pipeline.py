@@ -12,16 +12,17 @@ comparison and verdict → :class:`Result`, which :mod:`drumroll.outputs` writes
 
 from __future__ import annotations
 
+import importlib
 import math
 import os
 import time
 from collections.abc import Callable
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import arviz as az
 import numpy as np
 
 from drumroll import __version__
@@ -29,16 +30,19 @@ from drumroll.audio.io import AudioSource
 from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
-from drumroll.inference.comparison import LooResult, compare_models
 from drumroll.inference.evidence import Evidence, choose_evidence
 from drumroll.inference.inference_data import EXPORT, build_inference_data, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
-from drumroll.inference.summary import diagnostics, parameter_summary
 from drumroll.onsets import OnsetTable, detect, read_onsets
 from drumroll.workers import process_pool
+
+if TYPE_CHECKING:  # ArviZ is imported while the models are sampled (see estimate)
+    import arviz as az
+
+    from drumroll.inference.comparison import LooResult
 
 #: Fewest onsets that can constrain a model (three flights).
 MIN_ONSETS = 4
@@ -274,9 +278,18 @@ def model_seed(base: int, index: int) -> int:
     return int(np.random.SeedSequence([base, index]).generate_state(1)[0])
 
 
+def _while_sampling(meanwhile: Callable[[], object] | None) -> None:
+    """What this process does while the workers sample: import what the rest of
+    :func:`estimate` needs (ArviZ takes a second or two), then the caller's ``meanwhile``."""
+    importlib.import_module("drumroll.inference.comparison")
+    importlib.import_module("drumroll.inference.summary")
+    if meanwhile is not None:
+        meanwhile()
+
+
 def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str | os.PathLike[str],
              *, roll: int | None = None, progress: Progress | None = None,
-             **onset_options: Any) -> Result:
+             meanwhile: Callable[[], object] | None = None, **onset_options: Any) -> Result:
     """Posteriors of every model in the config, and their comparison.
 
     Parameters
@@ -292,6 +305,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         (see :func:`choose_roll`).
     progress
         Called with a line of text at each stage (the command line prints it on stderr).
+    meanwhile
+        Called once in this process while the models are sampled in worker processes (the
+        command line imports its figures' libraries there).
     onset_options
         Passed to :func:`drumroll.onsets.detect` when ``source`` is audio (``stream=N``: which
         audio stream of the file).
@@ -325,32 +341,56 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     say(f"sampling {', '.join(models)} ({evidence_note}{workers} "
         f"process{'es' if workers > 1 else ''})")
     started = time.perf_counter()
-    seeds = [model_seed(settings.sampler.seed, i) for i in range(len(models))]
-    if workers == 1:
-        outputs = [_fit(config, m, data, settings, s) for m, s in zip(models, seeds, strict=True)]
-    else:
-        with process_pool(workers) as pool:
-            futures = [pool.submit(_fit, config, m, data, settings, s)
-                       for m, s in zip(models, seeds, strict=True)]
-            outputs = []
-            for model, future in zip(models, futures, strict=True):
-                outputs.append(future.result())
-                say(f"{model}: done")
-    seconds["sampling"] = time.perf_counter() - started
-
-    started = time.perf_counter()
+    seeds = dict(zip(models, (model_seed(settings.sampler.seed, i) for i in range(len(models))),
+                     strict=True))
     fits: dict[str, ModelFit] = {}
-    for model, seed, (chain, evidence, check, fit_seconds) in zip(models, seeds, outputs,
-                                                                    strict=True):
+    loos: dict[str, LooResult] = {}
+    post_seconds = 0.0
+
+    def finish(model: str, output: tuple) -> None:
+        """A model's InferenceData and PSIS-LOO, as soon as its fit is back (this process is
+        otherwise idle while the others sample)."""
+        nonlocal post_seconds
+        from drumroll.inference.comparison import loo
+
+        begun = time.perf_counter()
+        chain, evidence, check, fit_seconds = output
         log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
         # The same generator as reported_draws: the stopping check saw these very numbers.
-        idata = build_inference_data(log_posterior, chain, np.random.default_rng(seed))
-        fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, check,
-                               fit_seconds)
+        idata = build_inference_data(log_posterior, chain, np.random.default_rng(seeds[model]))
+        fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, check, fit_seconds)
+        loos[model] = loo(idata)
+        post_seconds += time.perf_counter() - begun
+
+    if workers == 1:
+        for model in models:
+            output = _fit(config, model, data, settings, seeds[model])
+            if not fits:
+                _while_sampling(meanwhile)
+            finish(model, output)
+            say(f"{model}: done")
+    else:
+        # emcee (and scipy.stats with it) before the workers fork, so that they share it;
+        # ArviZ, the figures' libraries and so on after, while the workers sample.
+        importlib.import_module("emcee")
+        with process_pool(workers) as pool:
+            futures = {pool.submit(_fit, config, m, data, settings, seeds[m]): m
+                       for m in models}
+            _while_sampling(meanwhile)
+            for future in as_completed(futures):
+                finish(futures[future], future.result())
+                say(f"{futures[future]}: done")
+    fits = {model: fits[model] for model in models}  # in the config's order
+    seconds["sampling"] = time.perf_counter() - started - post_seconds
+
+    from drumroll.inference.comparison import compare_models
+    from drumroll.inference.summary import diagnostics, parameter_summary
+
+    started = time.perf_counter()
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
     rows, preferred, verdict, loos = compare_models({m: f.idata for m, f in fits.items()},
-                                                    config.model, evidences)
-    seconds["comparison"] = time.perf_counter() - started
+                                                    config.model, evidences, loos)
+    seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
     parameters = parameter_summary(main.idata, settings.hdi_prob)

@@ -93,17 +93,12 @@ def _apply_overrides(config, args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     """Run ``estimate``: check inputs and outputs first, then sample, then write."""
-    # Imported here: the samplers and ArviZ take seconds to import, which other commands
-    # (and ``--help``) should not pay.
-    import arviz as az
-
+    # Imported here: the samplers take a second to import, which other commands (and
+    # ``--help``) should not pay; ArviZ and the figures' libraries are imported while the
+    # models are sampled (``meanwhile``).
     from drumroll.pipeline import estimate
+    from drumroll.reporting.figures import load_figure_libraries
     from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
-
-    # ArviZ compiles its R-hat and ESS kernels with numba when numba is installed (librosa
-    # brings it), ~0.6 s in every process; on chains of a few thousand draws plain numpy is
-    # as fast. A command owns its process, so it may switch this off; the API does not.
-    az.Numba.disable_numba()
 
     source = Path(args.source)
     if not source.exists():
@@ -124,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     progress = Progress(quiet=args.quiet)
     with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
         result = estimate(source, config, roll=args.roll, progress=progress.say,
-                          **onset_options)
+                          meanwhile=load_figure_libraries, **onset_options)
     with progress.stage(f"writing {out_dir}"):
         write_outputs(result, out_dir, overwrite=args.force, truths=truths,
                       workers=args.workers)

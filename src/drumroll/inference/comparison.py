@@ -86,10 +86,12 @@ def decide(elpd_diff: float, elpd_diff_se: float, log_bf: float | None = None,
 
 
 def compare_models(idatas: dict[str, az.InferenceData], main: str,
-                   evidences: dict[str, Evidence] | None = None
+                   evidences: dict[str, Evidence] | None = None,
+                   loos: dict[str, LooResult] | None = None
                    ) -> tuple[list[dict[str, float | str | list[int]]], str | None, str,
                               dict[str, LooResult]]:
-    """Compare ``main`` with every other fitted model.
+    """Compare ``main`` with every other fitted model (``loos``: each model's PSIS-LOO where
+    already computed, see :func:`loo`).
 
     Returns
     -------
@@ -101,7 +103,7 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
         and each model's LOO.
     """
     evidences = evidences or {}
-    loos = {name: loo(idata) for name, idata in idatas.items()}
+    loos = {name: (loos or {}).get(name) or loo(idata) for name, idata in idatas.items()}
     rows: list[dict] = []
     sentences = []
     for name in idatas:
@@ -153,7 +155,10 @@ def _sentence(main: str, other: str, outcome: int, diff: float, diff_se: float,
               log_bf: float | None, log_bf_err: float | None) -> str:
     numbers = f"Δelpd = {diff:.1f} ± {diff_se:.1f}"
     if log_bf is not None:
-        numbers += f", log BF = {log_bf:.1f} ± {log_bf_err:.1f}"
+        # A cheap evidence's error can be ~0.01: give it one significant digit, not "± 0.0".
+        decimals = 1 if not log_bf_err or log_bf_err >= 0.05 else min(
+            3, -math.floor(math.log10(log_bf_err)))
+        numbers += f", log BF = {log_bf:.{decimals}f} ± {log_bf_err:.{decimals}f}"
     a, b = MODEL_NAMES.get(main, main), MODEL_NAMES.get(other, other)
     if outcome == 1:
         return f"{a} is preferred over {b} ({numbers})"

@@ -17,8 +17,9 @@ last observed bounce, gaps included.
 from __future__ import annotations
 
 import math
+import warnings
+from typing import TYPE_CHECKING
 
-import arviz as az
 import numpy as np
 from numpy.typing import NDArray
 
@@ -27,6 +28,9 @@ from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain
 from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
+
+if TYPE_CHECKING:  # ArviZ takes a second to import: only building InferenceData needs it
+    import arviz as az
 
 #: Internal name → (summary name, factor from SI to the summary's unit).
 EXPORT: dict[str, tuple[str, float]] = {
@@ -110,18 +114,24 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
     prior_variables, _, _ = parameter_draws(log_posterior, prior_samples[None], rng)
     coords = {"onset": data.bounces, "flight": np.arange(1, data.n_flights + 1)}
     dims = {"onset_time": ["onset"], "flight_time_model": ["flight"], "onset_sigma_s": ["onset"]}
-    idata = az.from_dict(
-        posterior=variables,
-        posterior_predictive={"onset_time": predicted, "flight_time_model": flights},
-        log_likelihood={"onset_time": pointwise},
-        observed_data={"onset_time": data.times},
-        constant_data={"onset_sigma_s": data.sigmas},
-        prior=prior_variables,
-        sample_stats={"lp": chain.log_prob},
-        coords=coords, dims=dims,
-        attrs={"model": log_posterior.space.model, "noise": log_posterior.noise,
-               "drumroll_version": __version__},
-    )
+    import arviz as az
+
+    with warnings.catch_warnings():
+        # ArviZ guesses that arrays with more chains than draws were passed transposed; an
+        # ensemble of 128 walkers, thinned, has exactly that shape.
+        warnings.filterwarnings("ignore", message="More chains", category=UserWarning)
+        idata = az.from_dict(
+            posterior=variables,
+            posterior_predictive={"onset_time": predicted, "flight_time_model": flights},
+            log_likelihood={"onset_time": pointwise},
+            observed_data={"onset_time": data.times},
+            constant_data={"onset_sigma_s": data.sigmas},
+            prior=prior_variables,
+            sample_stats={"lp": chain.log_prob},
+            coords=coords, dims=dims,
+            attrs={"model": log_posterior.space.model, "noise": log_posterior.noise,
+                   "drumroll_version": __version__},
+        )
     idata.sample_stats.attrs.update({
         "tau_steps": [float(t) for t in chain.tau], "tau_parameters": list(
             EXPORT[n][0] for n in log_posterior.space.names),

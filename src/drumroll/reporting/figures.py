@@ -39,6 +39,15 @@ FIGURE_FILES: dict[str, str] = {
 }
 
 
+def load_figure_libraries() -> None:
+    """Import what drawing needs (matplotlib's Agg canvas, corner, ArviZ), e.g. while the
+    models are sampled, so that the figures' worker processes, forked afterwards, share it
+    rather than each importing it again (about a second each)."""
+    import corner  # noqa: F401  (it imports ArviZ)
+    from matplotlib.backends import backend_agg  # noqa: F401
+    from matplotlib.figure import Figure  # noqa: F401
+
+
 def loo_comparison(idatas: dict[str, Any], main_model: str,
                    summary_rows: list[dict[str, Any]] | None = None,
                    loos: dict[str, Any] | None = None) -> list[dict[str, Any]]:

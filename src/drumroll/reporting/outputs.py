@@ -4,10 +4,8 @@ Everything is first written into a hidden staging folder inside the output folde
 renamed into place file by file, so an interrupted run (Ctrl-C included) leaves no
 half-written file, and existing files are replaced only with ``overwrite``.
 
-``posterior.nc`` holds the main model in ArviZ's standard groups (``az.from_netcdf`` opens it
-directly) and every compared model in groups suffixed with its name, e.g.
-``posterior_small_angle``; :func:`load_posteriors` splits them back into one InferenceData per
-model.
+``posterior.nc`` is written and read by :mod:`drumroll.reporting.posterior_file`
+(:func:`load_posteriors` is re-exported here).
 """
 
 from __future__ import annotations
@@ -22,16 +20,18 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-import arviz as az
-
 from drumroll import fileio
 from drumroll.errors import DrumrollError
 from drumroll.reporting.figures import FIGURE_FILES, figure_jobs
 from drumroll.reporting.onset_plot import write_onset_plot
+from drumroll.reporting.posterior_file import load_posteriors, save_posteriors
 from drumroll.reporting.report import write_report
 from drumroll.workers import process_pool
 
 #: Files an estimate writes, besides the figures.
+__all__ = ["DATA_FILES", "check_outputs", "load_posteriors", "output_files",
+           "save_posteriors", "write_outputs"]
+
 DATA_FILES = ("summary.json", "posterior.nc", "report.md")
 ONSETS_FIGURE = "onsets.png"
 
@@ -56,52 +56,6 @@ def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
             raise DrumrollError(f"{out_dir}: would overwrite {', '.join(existing)} (use --force "
                                 "or another --out)")
     return out_dir
-
-
-def _model_suffix(model: str) -> str:
-    return model.replace("-", "_")
-
-
-def save_posteriors(idatas: dict[str, az.InferenceData], main: str, path: Path) -> None:
-    """All models' InferenceData in one netCDF file (main model in the standard groups)."""
-    combined = idatas[main].copy()
-    for model, idata in idatas.items():
-        if model == main:
-            continue
-        combined.add_groups({f"{group}_{_model_suffix(model)}": getattr(idata, group)
-                             for group in idata.groups()})
-    combined.attrs["models"] = ",".join(idatas)
-    combined.attrs["main_model"] = main
-    combined.to_netcdf(str(path))
-
-
-def load_posteriors(path: str | os.PathLike[str]) -> dict[str, az.InferenceData]:
-    """Reopen ``posterior.nc``: model name → InferenceData (main model first).
-
-    Example
-    -------
-    >>> fits = load_posteriors("roll-estimate/posterior.nc")  # doctest: +SKIP
-    >>> az.summary(fits["pendulum"])                           # doctest: +SKIP
-    """
-    combined = az.from_netcdf(str(path))
-    models = str(combined.attrs.get("models", combined.attrs.get("model", "model"))).split(",")
-    main = str(combined.attrs.get("main_model", models[0]))
-    out: dict[str, az.InferenceData] = {}
-    for model in models:
-        suffix = "" if model == main else f"_{_model_suffix(model)}"
-        groups = {}
-        for group in combined.groups():
-            base = group[: -len(suffix)] if suffix and group.endswith(suffix) else group
-            if suffix and not group.endswith(suffix):
-                continue
-            if not suffix and any(group.endswith(f"_{_model_suffix(m)}") for m in models
-                                  if m != main):
-                continue
-            groups[base] = getattr(combined, group)
-        idata = az.InferenceData(**groups)
-        idata.attrs.update({"model": model})
-        out[model] = idata
-    return out
 
 
 def _json_safe(value: Any) -> Any:

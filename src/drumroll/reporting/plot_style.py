@@ -51,6 +51,9 @@ MODEL_NAMES: dict[str, str] = {
 DATA_COLOR = "black"
 #: Resolution of every PNG.
 DPI = 150
+#: zlib level of the PNGs: 1 (Pillow's fastest) encodes the trace figure in half the time of
+#: the default 6, and these plots come out no larger (within 20 %).
+PNG_COMPRESSION = 1
 #: Central posterior interval drawn as bands (and quoted in titles).
 BAND = 0.90
 
@@ -117,7 +120,8 @@ def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -
     """
     with style():
         return fileio.write_with(
-            path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white"),
+            path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white",
+                                          pil_kwargs={"compress_level": PNG_COMPRESSION}),
             overwrite=overwrite)
 
 
