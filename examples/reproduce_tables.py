@@ -50,7 +50,7 @@ def truth_rows(name: str, result) -> list[str]:
         if not truth_file.exists():
             continue
         truth = json.loads(truth_file.read_text())
-        alpha, t_b = truth["simulate"]["alpha"], truth["physics"]["t_b_s"]
+        alpha, t_b = truth["simulate"]["alpha"], truth["physics"]["t_b"]
         fit_a, fit_t = row["alpha"], row["fitted_t_b"]
         lines.append(
             f"| {name}: {run.label} | {alpha:g} | "

@@ -84,7 +84,7 @@ def test_report_has_title_table_rows_comparison_and_figure_links(summary, figure
     # α comes before t_B comes before d, whatever the dict order
     assert text.index("| α |") < text.index("| t_B (s) |") < text.index("| d (mm) |")
     # comparison and verdict
-    assert "| small-angle (`small-angle`) | 63 ± 7 | 55.2 ± 0.4 |" in text
+    assert "| small-angle pendulum (`small-angle`) | 63 ± 7 | 55.2 ± 0.4 |" in text
     assert "| power law (`powerlaw`) | 63 ± 7 | — |" in text
     assert "0 (reference)" in text
     assert "**Preferred model:** exact pendulum" in text

@@ -113,7 +113,7 @@ def test_truth_matches_the_physics_and_the_audio(tmp_path, capsys):
 
 
 def test_deterministic_for_a_seed_and_seed_matters(tmp_path, capsys):
-    config = write_config(tmp_path, timing_jitter_ms=0.2)
+    config = write_config(tmp_path, jitter_ms=0.2)
     for name, seed in (("a", "3"), ("b", "3"), ("c", "4")):
         code, err = simulate(tmp_path, config, f"{name}.wav", "--seed", seed, capsys=capsys)
         assert code == 0, err

@@ -31,12 +31,13 @@ from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.inference.evidence import Evidence, choose_evidence
-from drumroll.inference.inference_data import EXPORT, build_inference_data, parameter_draws
+from drumroll.inference.inference_data import build_inference_data, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.onsets import OnsetTable, detect, read_onsets
+from drumroll.quantities import BY_NAME
 from drumroll.workers import process_pool
 
 if TYPE_CHECKING:  # ArviZ is imported while the models are sampled (see estimate)
@@ -420,7 +421,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         "missing_bounces": data.missing,
         "notes": fitted.notes,
         "parameters": parameters,
-        "fixed": {EXPORT[name][0]: prior.value * EXPORT[name][1]
+        "fixed": {BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
                   for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
         "comparison": rows,
         "preferred": preferred,

@@ -12,18 +12,11 @@ from drumroll.cli.arguments import non_negative_int, positive_int
 from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
 from drumroll.fileio import ONSET_FILE_SUFFIXES
+from drumroll.quantities import QUANTITIES
 from drumroll.reporting.numbers import format_value_error
 
 if TYPE_CHECKING:
     from drumroll.pipeline import Result
-
-#: Truth-file keys (``drumroll simulate``) → posterior names, for the corner plot.
-_TRUTH_KEYS = {"alpha": "alpha", "pivot_mm": "pivot_mm", "height_mm": "height_mm",
-               "release_speed_m_s": "release_speed_m_s",
-               "release_angle_deg": "release_angle_deg", "timing_jitter_ms": "jitter_ms"}
-_TRUTH_PHYSICS = {"t_b_s": "t_b", "t_c_s": "t_c", "theta_c_deg": "theta_c_deg",
-                  "omega_c_rad_s": "omega_c", "contact_tip_speed_m_s": "contact_tip_speed_m_s"}
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of ``estimate`` (shared by ``drumroll estimate`` and ``estimate``)."""
@@ -71,12 +64,11 @@ def _truths(path: Path | None) -> dict[str, float] | None:
         raise DrumrollError(f"{path}: no such truth file") from None
     except (OSError, ValueError) as exc:
         raise DrumrollError(f"{path}: not a truth JSON file ({exc})") from None
-    simulate, physics = truth.get("simulate", {}), truth.get("physics", {})
-    out = {name: float(simulate[key]) for key, name in _TRUTH_KEYS.items()
-           if isinstance(simulate.get(key), int | float)}
-    out.update({name: float(physics[key]) for key, name in _TRUTH_PHYSICS.items()
-                if isinstance(physics.get(key), int | float)})
-    return out
+    # The truth's values are under the quantities' own keys (drumroll.quantities), as the
+    # posterior's are: what the simulation was given, and what its physics made of it.
+    given = {**truth.get("simulate", {}), **truth.get("physics", {})}
+    return {key: float(given[key]) for key in QUANTITIES
+            if isinstance(given.get(key), int | float) and not isinstance(given[key], bool)}
 
 
 def _apply_overrides(config, args: argparse.Namespace):

@@ -4,19 +4,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import warnings
 from typing import TYPE_CHECKING
 
 from drumroll.cli.arguments import positive_int
 from drumroll.errors import DrumrollError, DrumrollWarning
+from drumroll.quantities import DERIVED
 from drumroll.reporting.numbers import format_value_error
 
 if TYPE_CHECKING:
     from drumroll.inference.prior_predictive import Prediction
 
-_LABELS = {"t_c": ("t_C", "s"), "t_b": ("t_B", "s"), "theta_c": ("θ_C", "deg"),
-           "omega_c": ("ω_C", "rad/s"), "contact_tip_speed_m_s": ("tip speed", "m/s")}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -67,13 +65,12 @@ def _table(predictions: list[Prediction], args: argparse.Namespace) -> str:
     for p in predictions:
         lines.append(f"\n{p.model}")
         summary = p.summary()
-        for name, (label, unit) in _LABELS.items():
-            if name not in summary:
+        for key, quantity in DERIVED.items():
+            if key not in summary:
                 continue
-            mean, sd = summary[name]["mean"], summary[name]["sd"]
-            if unit == "deg":
-                mean, sd = math.degrees(mean), math.degrees(sd)
-            lines.append(f"  {label:<10} {format_value_error(mean, sd, unit=unit)}")
+            mean, sd = summary[key]["mean"], summary[key]["sd"]
+            lines.append(f"  {quantity.plain:<10} "
+                         f"{format_value_error(mean, sd, unit=quantity.unit)}")
         flights = summary["flights_s"]
         for k, (mean, sd) in enumerate(zip(flights["mean"], flights["sd"], strict=True), 1):
             lines.append(f"  {'T_' + str(k):<10} {format_value_error(mean, sd, unit='s')}")

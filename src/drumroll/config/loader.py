@@ -38,9 +38,10 @@ from drumroll.config.priors_section import parse_prior
 from drumroll.config.validate import check_keys, number, string, table
 from drumroll.errors import ConfigError
 from drumroll.inference.priors import Fixed, Prior
-from drumroll.parameters import DEFAULT_VALUES, MODEL_PARAMETERS, PARAMETERS, STICK_DIMENSIONS
 from drumroll.physics import GEOMETRIC_MODELS, MODELS, STANDARD_GRAVITY, STICK_SHAPES
 from drumroll.physics.geometry import StickGeometry
+from drumroll.physics.models import parameter_keys
+from drumroll.quantities import DEFAULT_VALUES, PARAMETERS, STICK_DIMENSIONS
 
 #: Extra sections: name → "module:function"; the function takes (table, where) and returns
 #: the parsed section, raising ConfigError with the key's path on bad input.
@@ -86,7 +87,7 @@ class Config:
         Models to compare the main one against (never contains ``model``).
     priors
         Prior per parameter by internal (SI) name, e.g. ``priors["pivot"]``; parameters the
-        config leaves out take :data:`~drumroll.parameters.DEFAULT_VALUES`.
+        config leaves out take :data:`~drumroll.quantities.DEFAULT_VALUES`.
     stick
         The stick, or None when no model needs one.
     gravity
@@ -208,7 +209,7 @@ def _parse_stick(section: dict[str, Any]) -> StickSpec:
         if key not in section:
             raise ConfigError(f"stick.{key}: missing (the {shape} shape needs the "
                               f"{STICK_DIMENSIONS[key].description})")
-        dims[STICK_DIMENSIONS[key].name] = parse_prior(section[key], STICK_DIMENSIONS[key],
+        dims[STICK_DIMENSIONS[key].field] = parse_prior(section[key], STICK_DIMENSIONS[key],
                                                        f"stick.{key}")
     return StickSpec(shape=shape, **dims)
 
@@ -218,7 +219,7 @@ def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str,
     priors = {PARAMETERS[key].name: parse_prior(value, PARAMETERS[key], f"priors.{key}")
               for key, value in section.items()}
     for model in models:
-        for key in MODEL_PARAMETERS[model]:
+        for key in parameter_keys(model):
             spec = PARAMETERS[key]
             if spec.name in priors:
                 continue

@@ -8,13 +8,13 @@ from typing import Any
 from drumroll.config.validate import check_keys, number, string, table
 from drumroll.errors import ConfigError
 from drumroll.inference.priors import FAMILIES, Fixed, Prior, Truncated
-from drumroll.parameters import ParameterSpec
+from drumroll.quantities import Quantity
 
 #: Families whose own parameters bound them; their range must lie inside the physical range.
 _BOUNDED = ("uniform", "loguniform", "beta")
 
 
-def parse_prior(value: Any, spec: ParameterSpec, key: str) -> Prior:
+def parse_prior(value: Any, spec: Quantity, key: str) -> Prior:
     """The prior written at ``key`` for the parameter ``spec``, converted to SI units.
 
     Parameters

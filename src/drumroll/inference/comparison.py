@@ -22,14 +22,13 @@ import arviz as az
 import numpy as np
 
 from drumroll.inference.evidence import Evidence
+from drumroll.physics.models import MODELS
 
 LOO_MIN_DIFF = 4.0
 SIGMAS = 2.0
 BF_MIN = 1.0
 PARETO_K_BAD = 0.7
 
-MODEL_NAMES = {"pendulum": "the exact pendulum", "small-angle": "the small-angle pendulum",
-               "powerlaw": "the power law"}
 
 
 @dataclass(frozen=True)
@@ -159,7 +158,7 @@ def _sentence(main: str, other: str, outcome: int, diff: float, diff_se: float,
         decimals = 1 if not log_bf_err or log_bf_err >= 0.05 else min(
             3, -math.floor(math.log10(log_bf_err)))
         numbers += f", log BF = {log_bf:.{decimals}f} ± {log_bf_err:.{decimals}f}"
-    a, b = MODEL_NAMES.get(main, main), MODEL_NAMES.get(other, other)
+    a, b = (f"the {MODELS[m].title}" if m in MODELS else m for m in (main, other))
     if outcome == 1:
         return f"{a} is preferred over {b} ({numbers})"
     if outcome == -1:

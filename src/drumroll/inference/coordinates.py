@@ -48,7 +48,7 @@ class SamplerCoordinates:
         names = self.space.names
         logs = tuple(names.index(n) for n in ("jitter", "t_b") if n in names)
         height = (names.index("height") if "height" in names
-                  and self.space.model in ("pendulum", "small-angle") else None)
+                  and self.space.forward.needs_stick else None)
         t0 = names.index("t0") if "t0" in names and self.data is not None else None
         object.__setattr__(self, "_logs", logs)
         object.__setattr__(self, "_height", height)
@@ -90,8 +90,7 @@ class SamplerCoordinates:
                 z[:, i] = np.log(x[:, i])
             if self._height is not None:
                 gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
-                ratio = x[:, self._height] / arm
-                theta_c = np.arcsin(ratio) if self.space.model == "pendulum" else ratio
+                theta_c = self.space.forward.contact_angle(x[:, self._height] / arm)
                 z[:, self._height] = np.sqrt(omega0**2 + 2.0 * gamma * (theta_c - theta0)) / gamma
             if self._t0 is not None:
                 impacts, valid = self.space.impacts(x, self.data.n_flights)
@@ -131,14 +130,10 @@ class SamplerCoordinates:
         gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
         q = z[:, self._height]
         theta_c = theta0 + (gamma * gamma * q * q - omega0 * omega0) / (2.0 * gamma)
-        ok = (q > 0.0) & (gamma * q > omega0) & (theta_c > 0.0) & (gamma > 0.0)
-        if self.space.model == "pendulum":
-            ok &= theta_c < 0.5 * np.pi
-            x[:, self._height] = arm * np.sin(theta_c)
-            log_det += np.log(arm * np.cos(theta_c) * gamma * q)
-        else:
-            x[:, self._height] = arm * theta_c
-            log_det += np.log(arm * gamma * q)
+        ratio, slope, possible = self.space.forward.height_ratio(theta_c)
+        ok = (q > 0.0) & (gamma * q > omega0) & possible & (gamma > 0.0)
+        x[:, self._height] = arm * ratio
+        log_det += np.log(arm * slope * gamma * q)
         if not ok.all():
             x[~ok, self._height] = np.nan
             log_det[~ok] = 0.0

@@ -16,7 +16,6 @@ last observed bounce, gaps included.
 
 from __future__ import annotations
 
-import math
 import warnings
 from typing import TYPE_CHECKING
 
@@ -27,28 +26,10 @@ from drumroll import __version__
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain
-from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
+from drumroll.quantities import BY_NAME, DERIVED
 
 if TYPE_CHECKING:  # ArviZ takes a second to import: only building InferenceData needs it
     import arviz as az
-
-#: Internal name → (summary name, factor from SI to the summary's unit).
-EXPORT: dict[str, tuple[str, float]] = {
-    **{spec.name: (spec.key, 1.0 / spec.to_si) for spec in PARAMETERS.values()},
-    **{f"stick_{spec.name}": (f"stick_{spec.key}", 1.0 / spec.to_si)
-       for spec in STICK_DIMENSIONS.values()},
-    "t0": ("t0_s", 1.0),
-    "nu": ("nu", 1.0),
-}
-#: Derived quantities: summary name → (Bounces attribute, factor to the summary's unit).
-DERIVED: dict[str, tuple[str, float]] = {
-    "t_b": ("t_b", 1.0),
-    "t_c": ("t_c", 1.0),
-    "theta_c_deg": ("theta_c", 180.0 / math.pi),
-    "omega_c": ("omega_c", 1.0),
-    "contact_tip_speed_m_s": ("tip_speed_c", 1.0),
-}
-
 
 def _flat(array: NDArray) -> NDArray:
     """(chain, draw, …) → (chain × draw, …)."""
@@ -74,14 +55,13 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
     t0 = log_posterior.conditional_t0(flat, rng)
     variables: dict[str, NDArray] = {}
     for name in space.names:
-        key, factor = EXPORT[name]
-        variables[key] = values[name] * factor
-    for key, (attribute, factor) in DERIVED.items():
-        value = getattr(bounces, attribute)
-        if key == "t_b" and "t_b" in space.names:
-            continue
+        variables[BY_NAME[name].key] = BY_NAME[name].to_user(values[name])
+    for key, quantity in DERIVED.items():
+        if quantity.name in space.names:
+            continue  # sampled (the power law's t_B)
+        value = getattr(bounces, quantity.bounces)
         if not np.all(np.isnan(value)):
-            variables[key] = value * factor
+            variables[key] = quantity.to_user(value)
     variables["t0_s"] = t0
     variables = {k: np.asarray(v).reshape(shape) for k, v in variables.items()}
     return variables, bounces.impacts.reshape((*shape, -1)), t0.reshape(shape)
@@ -134,7 +114,7 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
         )
     idata.sample_stats.attrs.update({
         "tau_steps": [float(t) for t in chain.tau], "tau_parameters": list(
-            EXPORT[n][0] for n in log_posterior.space.names),
+            BY_NAME[n].key for n in log_posterior.space.names),
         "acceptance": chain.acceptance, "n_steps": chain.n_steps, "burn": chain.burn,
         "thin": chain.thin, "converged": int(chain.converged)})
     return idata

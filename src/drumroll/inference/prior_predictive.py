@@ -15,16 +15,9 @@ from numpy.typing import NDArray
 
 from drumroll.config import Config
 from drumroll.errors import DrumrollError
-from drumroll.physics import GEOMETRIC_MODELS, REASONS, Bounces, bounce_sequence
-
-#: Derived quantities reported per model: name → (Bounces attribute, unit).
-QUANTITIES: dict[str, tuple[str, str]] = {
-    "t_c": ("t_c", "s"),
-    "t_b": ("t_b", "s"),
-    "theta_c": ("theta_c", "rad"),
-    "omega_c": ("omega_c", "rad/s"),
-    "contact_tip_speed_m_s": ("tip_speed_c", "m/s"),
-}
+from drumroll.physics import MODELS, REASONS, Bounces, bounce_sequence
+from drumroll.physics.models import forward_model, parameter_keys
+from drumroll.quantities import DERIVED
 
 
 @dataclass(frozen=True)
@@ -53,14 +46,16 @@ class Prediction:
         """Fraction of the draws that make a drumroll."""
         return self.bounces.alpha.shape[0] / self.n_draws
 
-    def quantity(self, name: str) -> NDArray:
-        """The valid draws of a derived quantity (see :data:`QUANTITIES`)."""
-        return getattr(self.bounces, QUANTITIES[name][0])
+    def quantity(self, key: str) -> NDArray:
+        """The valid draws of a derived quantity, by its key in the user's unit (see
+        :data:`drumroll.quantities.DERIVED`)."""
+        return DERIVED[key].to_user(getattr(self.bounces, DERIVED[key].bounces))
 
     def summary(self) -> dict[str, object]:
-        """Mean and sd of every quantity and flight (the ``predict --json`` contract)."""
+        """Mean and sd of every derived quantity (by its key, in its unit) and flight (the
+        ``predict --json`` contract)."""
         out: dict[str, object] = {}
-        for name in QUANTITIES:
+        for name in DERIVED:
             values = self.quantity(name)
             if np.all(np.isnan(values)):
                 continue  # the power law has no geometry
@@ -73,12 +68,14 @@ class Prediction:
 
 
 def predictable_models(config: Config) -> tuple[str, ...]:
-    """The models ``predict`` can propagate: both pendulums, and the power law if t_b has a
-    prior."""
-    models = list(GEOMETRIC_MODELS) if config.stick is not None else []
-    if config.has_prior("t_b"):
-        models.insert(0, "powerlaw")
-    return tuple(models)
+    """The models ``predict`` can propagate: those with a stick when the config gives one,
+    the others (the power law) when the config gives a prior for each of their parameters."""
+    def predictable(name: str) -> bool:
+        if MODELS[name].needs_stick:
+            return config.stick is not None
+        return all(config.has_prior(key) for key in parameter_keys(name))
+
+    return tuple(name for name in MODELS if predictable(name))
 
 
 def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_000,
@@ -107,17 +104,13 @@ def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_
         raise DrumrollError("the number of draws must be at least 2")
     rng = np.random.default_rng(seed)
     draws = {name: prior.sample(rng, n_draws) for name, prior in sorted(config.priors.items())}
-    if model == "powerlaw":
-        bounces = bounce_sequence("powerlaw", alpha=draws["alpha"], t_b=draws["t_b"],
-                                  n_flights=n_flights)
-    else:
+    forward = forward_model(model)
+    given = {name: draws[name] for name in forward.parameters}
+    if forward.needs_stick:
         if config.stick is None:
             raise DrumrollError(f"the {model} model needs a [stick] section in the config")
-        bounces = bounce_sequence(
-            model, alpha=draws["alpha"], n_flights=n_flights, pivot=draws["pivot"],
-            height=draws["height"], release_speed=draws["release_speed"],
-            release_angle=draws["release_angle"], stick=config.stick.sample(rng, n_draws),
-            g=config.gravity)
+        given.update(stick=config.stick.sample(rng, n_draws), g=config.gravity)
+    bounces = bounce_sequence(model, n_flights=n_flights, **given)
     valid = bounces.valid
     reasons = Counter(REASONS[code] for code in bounces.reason[~valid])
     if not valid.any():

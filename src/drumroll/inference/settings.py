@@ -34,10 +34,7 @@ from drumroll.errors import ConfigError
 from drumroll.inference.posterior import NOISE_MODELS
 from drumroll.inference.priors import Fixed, Prior
 from drumroll.inference.sampling import SamplerSettings
-from drumroll.parameters import ParameterSpec
-
-_NU = ParameterSpec("nu", "nu", r"$\nu$", "", 1.0, 0.0, float("inf"), True, True,
-                    "Student-t degrees of freedom")
+from drumroll.quantities import QUANTITIES
 
 
 @dataclass(frozen=True)
@@ -110,7 +107,7 @@ def parse_likelihood(section: dict[str, Any], where: str) -> dict[str, Any]:
     if "noise" in section:
         out["noise"] = string(section["noise"], f"{where}.noise", NOISE_MODELS)
     if "nu" in section:
-        out["nu"] = parse_prior(section["nu"], _NU, f"{where}.nu")
+        out["nu"] = parse_prior(section["nu"], QUANTITIES["nu"], f"{where}.nu")
     return out
 
 

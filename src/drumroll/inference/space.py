@@ -15,15 +15,15 @@ from numpy.typing import NDArray
 from drumroll.config import Config
 from drumroll.inference.prior_table import PriorTable
 from drumroll.inference.priors import Fixed, LogUniform, Prior
-from drumroll.parameters import MODEL_PARAMETERS, PARAMETERS
 from drumroll.physics import Bounces, StickGeometry
 from drumroll.physics.models import forward_model
+from drumroll.quantities import STICK_DIMENSIONS
 
 #: Prior of the onset jitter when the config gives none (SI: 0.01 to 10 ms, scale-free).
 DEFAULT_JITTER_PRIOR: Prior = LogUniform(low=1e-5, high=1e-2)
 
-#: Stick dimensions, by the internal name under which an uncertain one is sampled.
-STICK_PARAMETERS = {"stick_length": "length", "stick_tip": "tip", "stick_radius": "radius"}
+#: Stick dimensions: the internal name under which an uncertain one is sampled → its field.
+STICK_PARAMETERS = {q.name: q.field for q in STICK_DIMENSIONS.values()}
 
 
 @dataclass(frozen=True)
@@ -55,12 +55,10 @@ class ParameterSpace:
     def build(cls, config: Config, model: str, extra_priors: dict[str, Prior] | None = None
               ) -> ParameterSpace:
         """The space of ``model``: its physical parameters, the jitter, and ``extra_priors``."""
-        priors: dict[str, Prior] = {}
-        for key in MODEL_PARAMETERS[model]:
-            name = PARAMETERS[key].name
-            priors[name] = config.priors[name]
+        forward = forward_model(model)
+        priors: dict[str, Prior] = {name: config.priors[name] for name in forward.parameters}
         priors["jitter"] = config.priors.get("jitter", DEFAULT_JITTER_PRIOR)
-        if model != "powerlaw" and config.stick is not None:
+        if forward.needs_stick and config.stick is not None:
             for name, field in STICK_PARAMETERS.items():
                 priors[name] = getattr(config.stick, field)
         extra_priors = extra_priors or {}

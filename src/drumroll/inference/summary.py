@@ -10,7 +10,6 @@ import numpy as np
 
 from drumroll.inference.comparison import LooResult
 from drumroll.inference.convergence import diagnose
-from drumroll.inference.inference_data import EXPORT
 from drumroll.inference.sampling import Chain
 
 
@@ -83,8 +82,7 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
     """
     sampler = settings.sampler
     model = idata.attrs.get("model", "?")
-    sampled = [EXPORT[n][0] for n in EXPORT if EXPORT[n][0] in
-               idata.sample_stats.attrs.get("tau_parameters", [])]
+    sampled = list(idata.sample_stats.attrs.get("tau_parameters", []))
     stats = diagnose({name: np.asarray(idata.posterior[name]) for name in sampled})
     warnings: list[str] = []
     if not chain.converged:

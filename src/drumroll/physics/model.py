@@ -41,11 +41,19 @@ class ForwardModel(ABC):
         Internal names (SI) of the parameters its kernel takes, besides the stick's.
     needs_stick
         Whether it needs a stick and the set-up's geometry (the pendulum models).
+    title
+        Its name in words (legends, verdicts: "the {title} is preferred").
+    colour, linestyle
+        How every figure draws it (Okabe–Ito colours; line styles that keep coinciding
+        curves apart).
     """
 
     name: ClassVar[str]
     parameters: ClassVar[tuple[str, ...]]
     needs_stick: ClassVar[bool] = False
+    title: ClassVar[str]
+    colour: ClassVar[str]
+    linestyle: ClassVar[object] = "-"
 
     @abstractmethod
     def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,
@@ -76,6 +84,16 @@ class ForwardModel(ABC):
                 g: float = 9.81) -> Bounces:
         """The same flights with the fall and contact state, every invalid point masked
         with its reason (the parameters broadcast together)."""
+
+    def height_ratio(self, theta_c: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """h / (L − d) at the contact angle θ_C, its derivative with respect to θ_C, and where
+        θ_C is a possible contact (models that need a stick: the geometry the model assumes,
+        exact or linearised)."""
+        raise NotImplementedError(f"the {self.name} model has no stick")
+
+    def contact_angle(self, ratio: NDArray) -> NDArray:
+        """θ_C from h / (L − d): the inverse of :meth:`height_ratio`."""
+        raise NotImplementedError(f"the {self.name} model has no stick")
 
     def impacts(self, values: Values, n_flights: int, stick_shape: str | None = None,
                 g: float = 9.81) -> tuple[NDArray, NDArray]:

@@ -13,6 +13,7 @@ from drumroll.physics.pendulum import Pendulum
 from drumroll.physics.powerlaw import PowerLaw
 from drumroll.physics.release import STANDARD_GRAVITY
 from drumroll.physics.small_angle import SmallAngle
+from drumroll.quantities import BY_NAME
 
 ModelName = Literal["powerlaw", "small-angle", "pendulum"]
 
@@ -20,6 +21,11 @@ ModelName = Literal["powerlaw", "small-angle", "pendulum"]
 MODELS: dict[str, ForwardModel] = {m.name: m for m in (PowerLaw(), SmallAngle(), Pendulum())}
 #: Models that need a stick and the set-up's geometry.
 GEOMETRIC_MODELS: tuple[str, ...] = tuple(name for name, m in MODELS.items() if m.needs_stick)
+
+
+def parameter_keys(name: str) -> tuple[str, ...]:
+    """The config keys of the parameters model ``name`` takes a prior (or value) for."""
+    return tuple(BY_NAME[parameter].key for parameter in forward_model(name).parameters)
 
 
 def forward_model(name: str) -> ForwardModel:

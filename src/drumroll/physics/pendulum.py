@@ -110,6 +110,8 @@ class Pendulum(ForwardModel):
     """
 
     name = "pendulum"
+    title = "exact pendulum"
+    colour = "#0072B2"
     parameters = PENDULUM_PARAMETERS
     needs_stick = True
 
@@ -132,6 +134,13 @@ class Pendulum(ForwardModel):
                 valid &= c_c - excess[:, 0] > 0.0
             phase = flight_phase(excess, s_c[:, None] + excess, c_c[:, None])
             return phase * (2.0 / np.sqrt(gamma))[:, None], valid
+
+    def height_ratio(self, theta_c: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        # Exact geometry: sin θ_C = h / (L − d).
+        return np.sin(theta_c), np.cos(theta_c), (theta_c > 0.0) & (theta_c < 0.5 * np.pi)
+
+    def contact_angle(self, ratio: NDArray) -> NDArray:
+        return np.arcsin(ratio)
 
     def bounces(self, values: Values, n_flights: int, stick: StickGeometry | None = None,
                 g: float = 9.81) -> Bounces:

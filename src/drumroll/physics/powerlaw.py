@@ -33,6 +33,9 @@ class PowerLaw(ForwardModel):
     """T_k = t_B α^k for k = 1 … N (eq. 11): parameters α and t_B."""
 
     name = "powerlaw"
+    title = "power law"
+    colour = "#009E73"
+    linestyle = (0, (1, 1.6))
     parameters = ("alpha", "t_b")
 
     def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,

@@ -31,6 +31,9 @@ class SmallAngle(ForwardModel):
     t_B = 2 ω_C / γ)."""
 
     name = "small-angle"
+    title = "small-angle pendulum"
+    colour = "#D55E00"
+    linestyle = (0, (5, 2))
     parameters = PENDULUM_PARAMETERS
     needs_stick = True
 
@@ -46,6 +49,13 @@ class SmallAngle(ForwardModel):
             if np.ndim(t_b) == 0:  # every geometric parameter fixed
                 t_b = np.full(alpha.shape, t_b)
             return geometric(t_b, alpha, n_flights), valid
+
+    def height_ratio(self, theta_c: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        # Linearised geometry (eq. 6): θ_C = h / (L − d).
+        return theta_c, np.ones_like(theta_c), theta_c > 0.0
+
+    def contact_angle(self, ratio: NDArray) -> NDArray:
+        return ratio
 
     def bounces(self, values: Values, n_flights: int, stick: StickGeometry | None = None,
                 g: float = 9.81) -> Bounces:

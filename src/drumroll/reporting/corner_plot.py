@@ -104,7 +104,7 @@ def draw_corner(idata, truths: dict[str, float] | None = None):
     corner.corner(
         samples, fig=fig, labels=[parameter_label(n) for n in names],
         range=ranges, quantiles=list(QUANTILES), show_titles=False, color=color, truths=truth_list,
-        truth_color=OKABE_ITO["vermillion"] if model != "small-angle" else OKABE_ITO["blue"],
+        truth_color=next(c for c in (OKABE_ITO["vermillion"], OKABE_ITO["blue"]) if c != color),
         smooth=1.0 if n_draws >= 2000 else 1.6, smooth1d=None,
         bins=int(np.clip(np.sqrt(n_draws) / 2, 15, 30)), max_n_ticks=3,
         label_kwargs={"fontsize": 10},

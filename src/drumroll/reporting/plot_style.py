@@ -19,35 +19,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from drumroll import fileio
-from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
+from drumroll.physics.models import MODELS
+from drumroll.quantities import DERIVED, quantity
 
 #: Okabe & Ito (2008) colour-blind-safe palette.
 OKABE_ITO: dict[str, str] = {
     "blue": "#0072B2", "vermillion": "#D55E00", "green": "#009E73", "orange": "#E69F00",
     "sky": "#56B4E9", "purple": "#CC79A7", "yellow": "#F0E442", "black": "#000000",
 }
-#: One colour per model, the same in every figure.
-MODEL_COLORS: dict[str, str] = {
-    "pendulum": OKABE_ITO["blue"],
-    "small-angle": OKABE_ITO["vermillion"],
-    "powerlaw": OKABE_ITO["green"],
-}
-#: One line style per model, so coinciding curves (small-angle and power law predict the
-#: same geometric series) stay distinguishable.
-MODEL_LINESTYLES: dict[str, object] = {
-    "pendulum": "-",
-    "small-angle": (0, (5, 2)),
-    "powerlaw": (0, (1, 1.6)),
-}
 _SPARE_COLORS = (OKABE_ITO["orange"], OKABE_ITO["purple"], OKABE_ITO["sky"])
-#: Order in which models are listed when several are drawn.
-MODEL_ORDER: tuple[str, ...] = ("pendulum", "small-angle", "powerlaw")
-#: Human names for legends.
-MODEL_NAMES: dict[str, str] = {
-    "pendulum": "exact pendulum",
-    "small-angle": "small-angle",
-    "powerlaw": "power law",
-}
 DATA_COLOR = "black"
 #: Resolution of every PNG.
 DPI = 150
@@ -75,20 +55,6 @@ STYLE: dict[str, Any] = {
     "savefig.dpi": DPI,
     "figure.dpi": DPI,
 }
-
-#: Labels of derived quantities and nuisance parameters (not in the parameter registry).
-_EXTRA_LABELS: dict[str, str] = {
-    "t_c": r"$t_C$ (s)",
-    "theta_c_deg": r"$\theta_C$ (deg)",
-    "omega_c": r"$\omega_C$ (rad/s)",
-    "contact_tip_speed_m_s": r"$v_C$ (m/s)",
-    "t0_s": r"$t_0$ (s)",
-    "nu": r"$\nu$",
-}
-#: Posterior variables that are computed from the sampled ones, not sampled themselves.
-DERIVED_NAMES: frozenset[str] = frozenset(
-    {"t_b", "t_c", "theta_c_deg", "omega_c", "contact_tip_speed_m_s", "t0_s"})
-
 
 @contextlib.contextmanager
 def style() -> Iterator[None]:
@@ -126,27 +92,26 @@ def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -
 
 
 def model_color(model: str, index: int = 0) -> str:
-    """The fixed colour of ``model`` (a spare palette colour for unknown names)."""
-    return MODEL_COLORS.get(model, _SPARE_COLORS[index % len(_SPARE_COLORS)])
+    """The fixed colour of ``model`` (its registry entry; a spare colour for other names)."""
+    return MODELS[model].colour if model in MODELS else _SPARE_COLORS[index % len(_SPARE_COLORS)]
 
 
 def model_linestyle(model: str) -> object:
-    """The fixed line style of ``model`` (dash-dot for unknown names)."""
-    return MODEL_LINESTYLES.get(model, "-.")
+    """The fixed line style of ``model`` (dash-dot for names not in the registry)."""
+    return MODELS[model].linestyle if model in MODELS else "-."
 
 
 def model_name(model: str) -> str:
-    """A model's name as a legend shows it."""
-    return MODEL_NAMES.get(model, model)
+    """A model's name in words, as legends show it."""
+    return MODELS[model].title if model in MODELS else model
 
 
 def ordered_models(models: list[str] | tuple[str, ...] | Any, main: str | None = None
                    ) -> list[str]:
-    """Models in the canonical order, the main model first."""
+    """Models in the registry's order, richest first, the main model first of all."""
     models = list(models)
-    known = [m for m in MODEL_ORDER if m in models]
-    rest = [m for m in models if m not in MODEL_ORDER]
-    ordered = known + rest
+    registry = list(MODELS)[::-1]
+    ordered = [m for m in registry if m in models] + [m for m in models if m not in registry]
     if main in ordered:
         ordered.remove(main)
         ordered.insert(0, main)
@@ -155,17 +120,18 @@ def ordered_models(models: list[str] | tuple[str, ...] | Any, main: str | None =
 
 def parameter_label(key: str) -> str:
     """Axis label with its unit, e.g. ``$d$ (mm)``, for any posterior variable."""
-    if key in PARAMETERS:
-        return PARAMETERS[key].label()
-    if key.startswith("stick_") and key[6:] in STICK_DIMENSIONS:
-        return STICK_DIMENSIONS[key[6:]].label()
-    return _EXTRA_LABELS.get(key, key.replace("_", " "))
+    try:
+        return quantity(key).label()
+    except KeyError:
+        return key.replace("_", " ")
 
 
 def parameter_symbol(key: str) -> str:
     """The bare symbol of a posterior variable (no unit), e.g. ``$\\alpha$``."""
-    label = parameter_label(key)
-    return label.split(" (")[0]
+    try:
+        return quantity(key).symbol
+    except KeyError:
+        return key.replace("_", " ")
 
 
 def sampled_parameters(idata) -> list[str]:
@@ -182,7 +148,8 @@ def sampled_parameters(idata) -> list[str]:
         if listed is not None:
             names = [str(n) for n in np.atleast_1d(listed) if str(n) in posterior]
     if not names:
-        names = [str(n) for n in posterior.data_vars if str(n) not in DERIVED_NAMES]
+        names = [str(n) for n in posterior.data_vars if str(n) not in DERIVED
+                 and str(n) != "t0_s"]
     return [n for n in names if posterior[n].ndim == 2 and np.ptp(posterior[n].values) > 0]
 
 

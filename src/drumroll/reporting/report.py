@@ -17,39 +17,15 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 from drumroll import fileio
-from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS
+from drumroll.physics.models import MODELS
+from drumroll.quantities import DERIVED, QUANTITIES, report_order
 from drumroll.reporting.numbers import error_decimals, format_value_error
-from drumroll.reporting.plot_style import DERIVED_NAMES, model_name, single_flights
+from drumroll.reporting.plot_style import model_name, single_flights
 
-#: Plain-text symbols (Markdown has no mathtext).
-SYMBOLS: dict[str, str] = {
-    "alpha": "α", "t_b": "t_B", "pivot_mm": "d", "height_mm": "h",
-    "release_speed_m_s": "v₀", "release_angle_deg": "θ₀", "jitter_ms": "σ",
-    "stick_length_mm": "l₁", "stick_tip_mm": "l₂", "stick_radius_mm": "R",
-    "t_c": "t_C", "theta_c_deg": "θ_C", "omega_c": "ω_C", "contact_tip_speed_m_s": "v_C",
-    "t0_s": "t₀", "nu": "ν",
-}
-#: Units and plain words of the quantities that are not in the parameter registry.
-_EXTRA: dict[str, tuple[str, str]] = {
-    "t_b": ("s", "first-rebound time (N = 0 term of eq. 11)"),
-    "t_c": ("s", "fall time from release to the first impact"),
-    "theta_c_deg": ("deg", "stick angle at contact"),
-    "omega_c": ("rad/s", "angular speed at the first contact"),
-    "contact_tip_speed_m_s": ("m/s", "tip speed at the first contact"),
-    "t0_s": ("s", "time of the first impact in the recording"),
-    "nu": ("", "Student-t degrees of freedom of the onset noise"),
-}
-#: Order of the parameter table (anything else follows, alphabetically).
-_ORDER: tuple[str, ...] = (
-    "alpha", "t_b", "pivot_mm", "height_mm", "release_speed_m_s", "release_angle_deg",
-    "stick_length_mm", "stick_tip_mm", "stick_radius_mm", "jitter_ms", "nu",
-    "t_c", "theta_c_deg", "omega_c", "contact_tip_speed_m_s", "t0_s",
-)
 #: Figure key → (caption, what to look for), in the order they appear in the report.
 FIGURE_CAPTIONS: dict[str, tuple[str, str]] = {
     "onsets": ("Detected onsets",
@@ -88,30 +64,18 @@ def _cell(text: Any) -> str:
 
 
 def unit_of(key: str) -> str:
-    """Unit of a summary quantity ('' when dimensionless)."""
-    if key in PARAMETERS:
-        return PARAMETERS[key].unit
-    if key.startswith("stick_") and key[6:] in STICK_DIMENSIONS:
-        return STICK_DIMENSIONS[key[6:]].unit
-    return _EXTRA.get(key, ("", ""))[0]
+    """Unit of a summary quantity ('' when dimensionless or unknown)."""
+    return QUANTITIES[key].unit if key in QUANTITIES else ""
 
 
 def describe(key: str) -> str:
     """Plain words for a summary quantity."""
-    if key in _EXTRA:
-        return _EXTRA[key][1]
-    if key in PARAMETERS:
-        return PARAMETERS[key].description
-    if key.startswith("stick_") and key[6:] in STICK_DIMENSIONS:
-        return STICK_DIMENSIONS[key[6:]].description
-    return _EXTRA.get(key, ("", key.replace("_", " ")))[1]
+    return QUANTITIES[key].description if key in QUANTITIES else key.replace("_", " ")
 
 
 def parameter_heading(key: str) -> str:
     """``d (mm)``: symbol and unit of a summary quantity."""
-    symbol = SYMBOLS.get(key, key)
-    unit = unit_of(key)
-    return f"{symbol} ({unit})" if unit else symbol
+    return QUANTITIES[key].plain_label() if key in QUANTITIES else key
 
 
 def _fixed(value: float, decimals: int) -> str:
@@ -161,12 +125,6 @@ def _ess_text(bulk: Any, tail: Any) -> str:
     return f"{text} ⚠" if low else text
 
 
-def _ordered_keys(keys: Iterable[str]) -> list[str]:
-    keys = list(keys)
-    known = [k for k in _ORDER if k in keys]
-    return known + sorted(k for k in keys if k not in _ORDER)
-
-
 def parameter_table(parameters: dict[str, dict[str, Any]], model: str = "") -> list[str]:
     """Markdown lines of the parameter table (sampled first, then derived quantities)."""
     if not parameters:
@@ -175,11 +133,12 @@ def parameter_table(parameters: dict[str, dict[str, Any]], model: str = "") -> l
     prob = f"{100 * probs[0]:.0f} %" if probs else "90 %"
     lines = [f"| parameter | meaning | mean ± sd | {prob} HDI | R-hat | ESS bulk / tail |",
              "|---|---|---|---|---:|---:|"]
-    for key in _ordered_keys(parameters):
+    for key in report_order(list(parameters)):
         stats = parameters[key]
         estimate, interval = format_estimate(stats)
         meaning = describe(key)
-        if key in DERIVED_NAMES and not (key == "t_b" and model == "powerlaw"):
+        sampled = MODELS[model].parameters if model in MODELS else ()
+        if key in DERIVED and DERIVED[key].name not in sampled:
             meaning += " (derived)"
         lines.append(f"| {_cell(parameter_heading(key))} | {_cell(meaning)} | {estimate} | "
                      f"{interval} | {_rhat_text(stats.get('r_hat'))} | "
@@ -345,7 +304,7 @@ def _headline(summary: dict[str, Any]) -> str:
         if stats and _finite(stats.get("mean")):
             estimate, _ = format_estimate(stats)
             unit = unit_of(key)
-            parts.append(f"{SYMBOLS[key]} = {estimate}{' ' + unit if unit else ''}")
+            parts.append(f"{QUANTITIES[key].plain} = {estimate}{' ' + unit if unit else ''}")
     preferred = summary.get("preferred")
     text = ", ".join(parts)
     if preferred:

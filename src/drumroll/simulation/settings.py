@@ -10,7 +10,7 @@ Example::
     height_mm = 80
     release_speed_m_s = 0.0
     release_angle_deg = 0.0
-    timing_jitter_ms = 0.0        # Gaussian scatter of the impact times about the model
+    jitter_ms = 0.0               # Gaussian scatter of the impact times about the model
     min_tip_speed_m_s = 0.03      # stop once the tip hits slower than this ...
     # n_bounces = 30              # ... or after exactly this many rebounds (not both)
     sample_rate = 44100
@@ -67,6 +67,8 @@ import numpy as np
 
 from drumroll.config.validate import boolean, check_keys, join, number, string, table, type_name
 from drumroll.errors import AudioError, ConfigError, DrumrollWarning
+from drumroll.physics.models import GEOMETRIC_MODELS
+from drumroll.quantities import DERIVED, QUANTITIES
 from drumroll.simulation.disturbances import Disturbances
 from drumroll.simulation.room import Room
 from drumroll.simulation.sounds import DrumSound
@@ -77,21 +79,20 @@ if TYPE_CHECKING:
     from drumroll.simulation.render_hits import ExtraHit
 
 #: Forward models that can make a recording's truth (they give impact speeds).
-TRUTH_MODELS = ("pendulum", "small-angle")
+#: The models a simulation can take its truth from (those with a stick and a fall).
+TRUTH_MODELS = GEOMETRIC_MODELS
 SUBTYPES = ("PCM_16", "PCM_24", "FLOAT")
 #: Upper bound on the number of rebounds, whichever way the roll's end is chosen.
 MAX_BOUNCES = 400
 
-# key: (description for "missing" messages, factor to SI, required)
-_SCALARS: dict[str, tuple[str, float, bool]] = {
-    "alpha": ("true coefficient of restitution", 1.0, True),
-    "pivot_mm": ("true pivot distance from the butt", 1e-3, True),
-    "height_mm": ("true pivot height above the drumhead", 1e-3, True),
-    "release_speed_m_s": ("", 1.0, False),
-    "release_angle_deg": ("", math.pi / 180, False),
-    "timing_jitter_ms": ("", 1e-3, False),
-    "min_tip_speed_m_s": ("", 1.0, False),
-    "peak_dbfs": ("", 1.0, False),
+#: The true values a simulation takes, by quantity key (drumroll.quantities): required ones.
+_TRUTH_REQUIRED = ("alpha", "pivot_mm", "height_mm")
+#: Numbers of the section (key → factor to SI): the truth's quantities, then the recording's.
+_SCALARS: dict[str, float] = {
+    **{key: QUANTITIES[key].to_si for key in (*_TRUTH_REQUIRED, "release_speed_m_s",
+                                              "release_angle_deg", "jitter_ms")},
+    "min_tip_speed_m_s": 1.0,
+    "peak_dbfs": 1.0,
 }
 _OTHER = ("model", "n_bounces", "sample_rate", "subtype", "channels", "seed", "drum", "room",
           "disturbances", "clip_db")
@@ -141,7 +142,7 @@ class SimulateSettings:
     model: str = "pendulum"
     release_speed: float = 0.0
     release_angle: float = 0.0
-    timing_jitter: float = 0.0
+    jitter: float = 0.0
     n_bounces: int | None = None
     min_tip_speed: float | None = 0.03
     sample_rate: int = 44100
@@ -168,7 +169,7 @@ class SimulateSettings:
             "model": self.model, "alpha": self.alpha, "pivot_mm": self.pivot * 1e3,
             "height_mm": self.height * 1e3, "release_speed_m_s": self.release_speed,
             "release_angle_deg": math.degrees(self.release_angle),
-            "timing_jitter_ms": self.timing_jitter * 1e3, "n_bounces": self.n_bounces,
+            "jitter_ms": self.jitter * 1e3, "n_bounces": self.n_bounces,
             "min_tip_speed_m_s": self.min_tip_speed, "sample_rate": self.sample_rate,
             "subtype": self.subtype, "channels": self.channels, "peak_dbfs": self.peak_dbfs,
             **({"hits": list(self.hits), "layer_db": self.layer_db,
@@ -201,16 +202,17 @@ def parse_simulate(section: dict[str, Any], where: str = "simulate") -> Simulate
     """
     check_keys(section, (*_SCALARS, *_OTHER, *_HITS_KEYS, "wet_db"), where)
     values: dict[str, Any] = {}
-    for key, (description, to_si, required) in _SCALARS.items():
+    for key, to_si in _SCALARS.items():
         if key not in section:
-            if required:
-                raise ConfigError(f"{join(where, key)}: missing (the {description})")
+            if key in _TRUTH_REQUIRED:
+                raise ConfigError(f"{join(where, key)}: missing (the true "
+                                  f"{QUANTITIES[key].description})")
             continue
         values[key] = number(section[key], join(where, key)) * to_si
     alpha = values["alpha"]
     if not 0 < alpha <= 1:
         raise ConfigError(f"{join(where, 'alpha')}: must lie in (0, 1], got {alpha!r}")
-    for key in ("pivot_mm", "timing_jitter_ms", "release_speed_m_s"):
+    for key in ("pivot_mm", "jitter_ms", "release_speed_m_s"):
         if key in values and values[key] < 0:
             raise ConfigError(f"{join(where, key)}: must not be negative, got {section[key]!r}")
     if values["height_mm"] <= 0:
@@ -254,7 +256,7 @@ def parse_simulate(section: dict[str, Any], where: str = "simulate") -> Simulate
         model=string(section.get("model", "pendulum"), join(where, "model"), TRUTH_MODELS),
         release_speed=values.get("release_speed_m_s", 0.0),
         release_angle=values.get("release_angle_deg", 0.0),
-        timing_jitter=values.get("timing_jitter_ms", 0.0), n_bounces=n_bounces,
+        jitter=values.get("jitter_ms", 0.0), n_bounces=n_bounces,
         min_tip_speed=min_speed, sample_rate=sample_rate,
         subtype=string(section.get("subtype", "PCM_16"), join(where, "subtype"), SUBTYPES),
         channels=channels, peak_dbfs=values.get("peak_dbfs", -1.0), seed=seed,
@@ -539,12 +541,9 @@ def true_impacts(settings: SimulateSettings, stick: Any, gravity: float,
                           f"tip speed fell below min_tip_speed_m_s = {settings.min_tip_speed:g}",
                           DrumrollWarning, stacklevel=2)
         times, speeds = times[:keep], speeds[:keep]
-    jittered = np.sort(times + settings.timing_jitter * rng.standard_normal(len(times)))
+    jittered = np.sort(times + settings.jitter * rng.standard_normal(len(times)))
     return {
         "model_times_s": times, "times_s": jittered, "speeds_m_s": speeds,
-        "physics": {"t_c_s": float(np.ravel(bounces.t_c)[0]),
-                    "t_b_s": float(np.ravel(bounces.t_b)[0]),
-                    "theta_c_deg": math.degrees(float(np.ravel(bounces.theta_c)[0])),
-                    "omega_c_rad_s": float(np.ravel(bounces.omega_c)[0]),
-                    "contact_tip_speed_m_s": float(np.ravel(bounces.tip_speed_c)[0])},
+        "physics": {key: q.to_user(float(np.ravel(getattr(bounces, q.bounces))[0]))
+                    for key, q in DERIVED.items()},
     }

@@ -25,16 +25,12 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "fitted_t_b": ("fitted t_B (s)", r"fitted $t_B$ (\si{s})"),
     "alpha": ("α", r"$\alpha$"),
 }
-_PLAIN_SYMBOLS = {r"\alpha": "α", r"\theta_0": "θ0", r"\sigma": "σ", "_": "", "$": ""}
 _SHARED_MARK = "*"
 
 
 def plain_symbol(key: str) -> str:
-    """A parameter's symbol without mathtext, e.g. ``d`` or ``l1``."""
-    text = vary_spec(key).symbol
-    for old, new in _PLAIN_SYMBOLS.items():
-        text = text.replace(old, new)
-    return text
+    """A parameter's symbol without mathtext, e.g. ``d`` or ``l₁``."""
+    return vary_spec(key).plain
 
 
 def vary_header(key: str, latex: bool = False) -> str:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from drumroll.parameters import PARAMETERS
+from drumroll.quantities import PARAMETERS
 from drumroll.table.execute import (
     CACHE_SCHEMA,
     TableResult,

@@ -37,7 +37,8 @@ from drumroll.config import Config, parse_config
 from drumroll.config.loader import read_toml
 from drumroll.config.validate import check_keys, did_you_mean, number, string, table, type_name
 from drumroll.errors import ConfigError
-from drumroll.parameters import PARAMETERS, STICK_DIMENSIONS, ParameterSpec
+from drumroll.physics.models import parameter_keys
+from drumroll.quantities import PARAMETERS, STICK_DIMENSIONS, Quantity
 
 #: Config sections a RUNS file (top level or one run) may override.
 OVERRIDABLE = ("priors", "stick", "sampler", "likelihood", "report")
@@ -115,7 +116,7 @@ class RunsFile:
         return self.path.parent / ".drumroll-cache"
 
 
-def vary_spec(key: str) -> ParameterSpec:
+def vary_spec(key: str) -> Quantity:
     """The parameter behind a ``vary`` key (a ``[priors]`` or ``[stick]`` key)."""
     return PARAMETERS.get(key) or STICK_DIMENSIONS[key]
 
@@ -311,9 +312,7 @@ def _check_run(run: Run, vary: str | None, share: tuple[str, ...]) -> None:
 
 
 def _model_keys(config: Config) -> tuple[str, ...]:
-    from drumroll.parameters import MODEL_PARAMETERS
-
-    return (*MODEL_PARAMETERS[config.model], "jitter_ms")
+    return (*parameter_keys(config.model), "jitter_ms")
 
 
 def vary_value(run: Run, key: str) -> tuple[float, float | None] | None:
@@ -326,7 +325,7 @@ def vary_value(run: Run, key: str) -> tuple[float, float | None] | None:
     value = run.raw.get(section, {}).get(key)
     if value is None:
         spec = vary_spec(key)
-        prior = run.config.priors.get(spec.name)
+        prior = run.config.priors.get(spec.field)
         if prior is None or not prior.is_fixed:
             return None
         return float(prior.median()) / spec.to_si, None
@@ -339,8 +338,8 @@ def vary_value(run: Run, key: str) -> tuple[float, float | None] | None:
         low, high = float(value["low"]), float(value["high"])
         return 0.5 * (low + high), 0.5 * (high - low)
     spec = vary_spec(key)
-    prior = (run.config.priors.get(spec.name) if section == "priors"
-             else getattr(run.config.stick, spec.name))
+    prior = (run.config.priors.get(spec.field) if section == "priors"
+             else getattr(run.config.stick, spec.field))
     low, mid, high = (float(prior.ppf(q)) / spec.to_si for q in (0.1587, 0.5, 0.8413))
     spread = 0.5 * (high - low)
     return mid, spread if math.isfinite(spread) and spread > 0 else None
