@@ -6,11 +6,13 @@
    temporary git worktree: nothing is installed, no network) alternately, ``--repeats`` times
    each. Prints both medians, their ratio, and each one's stages (start-up, sampling and
    evidence per model, writing), and α's effective samples and ESS per second.
-2. Effective samples of α per second: drumroll's sampler against emcee's default stretch move
+2. The issue's other targets, the same way: a 6-run ``drumroll table`` (the bundled recordings
+   of Tables 1 and 2, no cache), ``drumroll onsets`` on a 4 s recording, ``estimate --help``.
+3. Effective samples of α per second: drumroll's sampler against emcee's default stretch move
    given the same number of steps, side by side on the same posterior.
 
 Run: ``python benchmarks/estimate.py [--against REV] [--repeats 3] [--source data/table2_h80.flac]
-[--skip-main] [--skip-peer]``.
+[--skip-main] [--skip-others] [--skip-peer]``.
 """
 
 from __future__ import annotations
@@ -118,6 +120,68 @@ def main_command(source: Path, config: Path, repeats: int, against: str) -> None
               f"{ess_per_s:.0f} ESS(α) per second of wall time; preferred {r['preferred']}")
 
 
+#: The six bundled recordings of the paper's Tables 1 and 2, each with its own config.
+TABLE_RUNS = ("table1_d110", "table1_d131", "table1_d152", "table2_h50", "table2_h80",
+              "table2_h110")
+
+
+def six_run_table(folder: Path) -> Path:
+    """A runs file of :data:`TABLE_RUNS` (absolute paths) in ``folder``."""
+    lines = ['title = "Tables 1 and 2: six runs"', ""]
+    for name in TABLE_RUNS:
+        lines += ["[[run]]", f'label = "{name}"', f'source = "{ROOT / "data" / name}.flac"',
+                  f'config = "{ROOT / "data" / name}.toml"', ""]
+    path = folder / "six_runs.toml"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def timed(src: Path, arguments: list[str]) -> tuple[float, str]:
+    """Wall time of ``python -m drumroll ARGUMENTS`` with the package at ``src``, and its
+    standard output (a failure raises)."""
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    started = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "drumroll", *arguments], capture_output=True,
+                          text=True, check=False, env=env)
+    wall = time.perf_counter() - started
+    if proc.returncode != 0:
+        raise RuntimeError(f"drumroll {' '.join(arguments)} failed ({proc.returncode}) with "
+                           f"{src}: {proc.stderr.strip()[-300:]}")
+    return wall, proc.stdout
+
+
+def other_commands(repeats: int, against: str) -> None:
+    """The issue's other targets, side by side: a 6-run ``drumroll table`` (no cache; goal ≤
+    1/3), ``drumroll onsets`` on a 4 s recording (goal ≤ 1/2) and ``estimate --help`` (goal:
+    no slower)."""
+    with worktree(against) as old, tempfile.TemporaryDirectory() as tmp:
+        trees = {"this tree": ROOT / "src", against: old / "src"}
+        runs_file = six_run_table(Path(tmp))
+        cases = {
+            "table, 6 runs (no cache)": (["table", str(runs_file), "--no-cache", "-q"], 1 / 3),
+            "onsets, 4 s recording": (["onsets", str(ROOT / "data" / "table2_h80.flac")],
+                                      1 / 2),
+            "estimate --help": (["estimate", "--help"], 1.0),
+        }
+        print(f"\nother commands, {repeats} runs each, alternating (median wall, s)")
+        print(f"  {'command':<28} {'this tree':>10} {against:>10} {'ratio':>7} {'goal':>6}")
+        for name, (arguments, goal) in cases.items():
+            walls: dict[str, list[float]] = {label: [] for label in trees}
+            outputs: dict[str, str] = {}
+            for _ in range(repeats):
+                for label, src in trees.items():
+                    wall, outputs[label] = timed(src, arguments)
+                    walls[label].append(wall)
+            medians = {label: statistics.median(w) for label, w in walls.items()}
+            ratio = medians["this tree"] / medians[against]
+            print(f"  {name:<28} {medians['this tree']:10.2f} {medians[against]:10.2f} "
+                  f"{ratio:7.2f} {'≤ ' + format(goal, '.2f'):>6}")
+            if name.startswith("table"):
+                for label, text in outputs.items():  # the same numbers?
+                    rows = [line for line in text.splitlines() if line.startswith("|")]
+                    print(f"    {label}:\n      " + "\n      ".join(rows))
+
+
 def ess_alpha(chain: np.ndarray) -> float:
     """Bulk ESS of α from a (walkers, draws) array."""
     return float(az.ess(chain, method="bulk"))
@@ -166,12 +230,16 @@ def main() -> None:
                         help=f"git revision to compare with (default {BASELINE})")
     parser.add_argument("--skip-main", action="store_true")
     parser.add_argument("--skip-peer", action="store_true")
+    parser.add_argument("--skip-others", action="store_true",
+                        help="skip the table, onsets and --help timings")
     parser.add_argument("--repeats", type=int, default=3, help="runs of each version")
     args = parser.parse_args()
     source = args.source.resolve()
     config = (args.config or args.source.with_suffix(".toml")).resolve()
     if not args.skip_main:
         main_command(source, config, args.repeats, args.against)
+    if not args.skip_others:
+        other_commands(args.repeats, args.against)
     if not args.skip_peer:
         sampler_peer(source, config)
 
