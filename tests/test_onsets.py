@@ -168,6 +168,41 @@ def test_several_rolls_in_one_file_are_each_reported():
         np.testing.assert_allclose(roll.time_s, truth[roll.bounce], atol=2e-3)
 
 
+def test_a_long_recording_of_many_rolls_is_tracked_roll_by_roll(tmp_path, monkeypatch):
+    """Twenty rolls 1.5 s apart (64 s): every stretch between two rolls is shorter than the
+    longest flight, so the whole file is one stretch of candidates. The tracker chained
+    loud impacts of successive rolls into one "roll" (flights that grew, longer than any
+    flight considered, 3.2 s apart): the sequence law fitted to it put onsets out of order
+    ("bounce 12 after bounce 13") and its audio was read whole, so memory grew with the
+    file. Each roll is found on its own, numbered from its first impact, and no excerpt
+    read is longer than a roll and its context."""
+    import soundfile as sf
+
+    import drumroll.onsets.detector as detector
+
+    r = simulated_roll(6, snr_db=30)
+    n = 20
+    path = tmp_path / "rolls.wav"
+    sf.write(path, np.tile(r.samples, n), r.sample_rate, subtype="PCM_16")
+    longest = [0]
+    read = detector.read_excerpt
+
+    def recorded(source, start, stop, *args, **kwargs):
+        longest[0] = max(longest[0], stop - start)
+        return read(source, start, stop, *args, **kwargs)
+
+    monkeypatch.setattr(detector, "read_excerpt", recorded)
+    table = detect(path)
+    period = r.samples.shape[0] / r.sample_rate
+    assert table.rolls == tuple(range(n))
+    for k in table.rolls:
+        roll = table.select_roll(k)
+        assert roll.bounce[0] == 0 and len(roll) >= 8
+        np.testing.assert_allclose(roll.time_s, r.impact_times_s[roll.bounce] + k * period,
+                                   atol=2e-3)
+    assert longest[0] < 8 * r.sample_rate  # the file is 64 s long
+
+
 def test_targeted_search_recovers_what_the_first_pass_misses():
     # With a file-wide threshold far above the default, only the loud start of the roll is
     # a candidate; the window-by-window search must still follow it into the quiet part,

@@ -80,6 +80,26 @@ def test_the_real_ping_pong_is_found_from_its_first_impact():
     assert len(table) > truth.size  # and on into the bounces too faint to reference
 
 
+def test_ping_pong_rolls_one_after_another_are_not_chained():
+    """The real ping-pong three times in a row (0.4 s from one roll's last bounce to the
+    next one's drop): the tracker chained the end of the first roll into the next two,
+    through flights growing from 40 ms to 1.5 s, and reported one roll. Three rolls, each
+    from its first impact."""
+    x, sr = sf.read(DATA / "pingpong.wav")
+    truth = np.asarray(json.loads((DATA / "pingpong.truth.json").read_text())["onset_times_s"])
+    table = detect(np.tile(x, 3), sr)
+    assert table.rolls == (0, 1, 2)
+    for k in table.rolls:
+        roll = table.select_roll(k)
+        start = k * x.size / sr
+        ref = roll.time_s <= start + truth[-1] + 0.002
+        nearest = [int(np.argmin(np.abs(truth + start - t))) for t in roll.time_s[ref]]
+        np.testing.assert_array_equal(roll.bounce[ref], nearest)  # every one numbered right
+        err = roll.time_s[ref] - start - truth[roll.bounce[ref]]
+        assert roll.bounce[0] == 0 and abs(err[0] - np.median(err)) < 0.5e-3
+        assert ref.sum() >= 45
+
+
 def test_a_hard_release_keeps_its_first_impact():
     """A stick thrown down at 0.9 m/s, and a faint side-stick tap 35 ms before its first
     impact: the tap, numbered first, made the real first impact (27 dB over its background)

@@ -168,10 +168,13 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05) -> Roll:
     sr = ex.sr
     margin = round(0.001 * sr)
     out = []
+    # An onset is searched for between the middles of the flights either side of it: the
+    # bounces keep their order whatever the law says.
+    mids = np.concatenate(([-np.inf], 0.5 * (times[1:] + times[:-1]), [np.inf]))
     for j, (t, mu, sd) in enumerate(zip(times, law.time_s, law.sd_s, strict=True)):
         reach = max(4.0 * sd * sr, margin)
-        lo = round(min(t, mu) * sr - reach)
-        hi = round(max(t, mu) * sr + reach)
+        lo = round(max(min(t, mu) * sr - reach, mids[j] * sr + 1))
+        hi = round(min(max(t, mu) * sr + reach, mids[j + 1] * sr - 1))
         # The whitening reference: up to 6 ms before the searched stretch, never reaching
         # back past the middle of the flight before it.
         flight = times[j] - times[j - 1] if j else 0.05

@@ -303,7 +303,9 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
         return (y2[i + w] - y2[i]) / w
 
     n0 = round(roll.time_s[0] * sr)
-    shifts = np.arange(-round(0.001 * sr), reach + 1)
+    # (Never as far as the middle of the first flight: the bounces keep their order.)
+    shifts = np.arange(-round(0.001 * sr),
+                       min(reach, round(0.5 * (roll.time_s[1] - roll.time_s[0]) * sr) - 1) + 1)
     if n0 - ex.start + shifts[0] - before * w < 0 or n0 + reach + n_bins * w > ex.stop:
         return roll
     first = envelope(n0 + shifts[:, None] + rel[None, :])  # (shifts, bins)

@@ -16,7 +16,14 @@ term is evidence, none is a rule:
 * **timing**: every flight against the prediction from the path's running interval ratio,
   Gaussian in the log flight with a scatter that grows with both onsets' timing
   uncertainties and the ratio's natural jitter, against a background uniform in log
-  interval;
+  interval. Flights do not grow: the predicted ratio is at most 1, no flight is longer
+  than the path's first (beyond the scatter of a ratio) nor than ``max_interval_s``. While
+  the bouncer is in the air it makes no sound, so every candidate heard during a flight
+  (past its first quarter, where the last impact's own echoes and double hits are) is an
+  unrelated sound; with n of them about, one landing where the next bounce is predicted is
+  n times likelier, and the flight's timing evidence is divided by that (the look-elsewhere
+  effect: in a stretch of many rolls the loud impacts of one roll no longer chain with
+  those of the next into a slow "bouncer");
 * **missed bounces**: one step may bridge up to ``max_skip`` unheard bounces (a masked or
   faint one is not the end of the roll), each at a cost, and the onsets after the gap are
   numbered accordingly;
@@ -29,7 +36,9 @@ by gaps longer than any flight (independent, so an hour of audio is tracked in p
 the ``beam`` best paths ending at each onset. The best path is a roll; it starts where the
 evidence starts and stops where further candidates no longer add to it. A recording may hold
 several rolls: the search is repeated on the candidates outside the rolls found so far for as
-long as a path scores above zero.
+long as a path scores above zero. A stretch of many rolls with short pauses between them is
+searched in windows of a minute (each looking half a minute further, so that a roll starting
+in it is seen whole): work and memory grow with the recording's length, not its square.
 """
 
 from __future__ import annotations
@@ -135,29 +144,70 @@ def track(c: Candidates, params: TrackParams | None = None) -> list[Track]:
     Rolls do not overlap: after a roll is found, the candidates from its first onset to
     where its flights would have died out are set aside, and the candidates before and after
     them are searched in turn (each on its own: no roll spans the one set aside) until no
-    path scores above zero.
+    path scores above zero. A long stretch is searched window by window
+    (:func:`_windows`), so the work grows with the recording's length, not with its square.
     """
     p = params or TrackParams()
     if len(c) == 0:
         return []
-    w = _evidence(c.z, p)
     lev = level_db(c.level)
     found: list[Track] = []
-    todo = stretches(c.time_s, p.max_interval_s)
-    while todo:
-        lo, hi = todo.pop()
-        if hi - lo < 2:
-            continue
-        path, bounce, score = _Beam(c.time_s[lo:hi], w[lo:hi], c.sigma_s[lo:hi], lev[lo:hi],
-                                    p).run()
-        if len(path) < 2 or score <= 0:
-            continue
-        chosen = lo + np.asarray(path)
-        found.append(Track(chosen, bounce, score))
-        span = _span(c.time_s, chosen, lo, hi)
-        todo += [(lo, span.start), (span.stop, hi)]
+    for lo, hi in stretches(c.time_s, p.max_interval_s):
+        found += _windows(c.time_s, c.z, c.sigma_s, lev, lo, hi, p)
     found.sort(key=lambda tr: -tr.score)
     return found
+
+
+def _windows(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, lev: np.ndarray, lo: int,
+             hi: int, p: TrackParams) -> list[Track]:
+    """The rolls of the stretch ``[lo, hi)``, searched in windows of :data:`WINDOW_S` with
+    :data:`OVERLAP_S` more after each: the rolls that start in a window are kept, those
+    that start in the overlap are found again, whole, in the next window, which starts
+    past the sound of the rolls kept. A stretch shorter than a window and its overlap is
+    searched in one piece."""
+    out: list[Track] = []
+    start = lo
+    while hi - start >= 2:
+        cut = start + int(np.searchsorted(t[start:hi], t[start] + WINDOW_S, side="left"))
+        stop = start + int(np.searchsorted(t[start:hi], t[start] + WINDOW_S + OVERLAP_S,
+                                           side="left"))
+        last = stop >= hi
+        rolls = _best_first(t, z, sigma, lev, start, hi if last else stop, p)
+        if last:
+            return out + [tr for tr, _ in rolls]
+        kept = [(tr, span) for tr, span in rolls if tr.index[0] < cut]
+        out += [tr for tr, _ in kept]
+        start = max([cut, *(span.stop for _, span in kept)])
+    return out
+
+
+def _best_first(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, lev: np.ndarray, lo: int,
+                hi: int, p: TrackParams) -> list[tuple[Track, slice]]:
+    """The rolls of the candidates ``[lo, hi)``, best first, each with the candidates set
+    aside as its sound (:func:`_span`)."""
+    found: list[tuple[Track, slice]] = []
+    todo = [(lo, hi)]
+    while todo:
+        a, b = todo.pop()
+        if b - a < 2:
+            continue
+        path, bounce, score = _Beam(t[a:b], z[a:b], sigma[a:b], lev[a:b], p).run()
+        if len(path) < 2 or score <= 0:
+            continue
+        chosen = a + np.asarray(path)
+        span = _span(t, chosen, a, b)
+        found.append((Track(chosen, bounce, score), span))
+        todo += [(a, span.start), (span.stop, b)]
+    return found
+
+
+#: Share of a flight, after its first onset, where candidates are that onset's own echoes
+#: and double hits (:func:`explain` calls them so), not sounds unrelated to the roll.
+ECHO_SHARE = 0.25
+
+#: Length of the windows a long stretch of candidates is searched in (seconds), and how
+#: far past its end each window looks, so that a roll that starts in it is seen whole.
+WINDOW_S, OVERLAP_S = 60.0, 30.0
 
 
 def _span(t: np.ndarray, chosen: np.ndarray, lo: int, hi: int) -> slice:
@@ -185,12 +235,13 @@ class _Beam:
     then so that memory stays bounded however long the stretch is.
     """
 
-    _FLOAT = ("score", "rho", "last", "dlev")
+    _FLOAT = ("score", "rho", "last", "dlev", "first", "until")
     _INT = ("end", "prev", "bounce", "parent")
 
-    def __init__(self, t: np.ndarray, w: np.ndarray, sigma: np.ndarray, lev: np.ndarray,
+    def __init__(self, t: np.ndarray, z: np.ndarray, sigma: np.ndarray, lev: np.ndarray,
                  p: TrackParams) -> None:
-        self.t, self.w, self.p, self.lev = t, w, p, lev
+        self.t, self.z, self.p, self.lev = t, z, p, lev
+        self.w = w = _evidence(z, p)
         self.sig2 = np.square(np.maximum(sigma, 1e-6))
         self.strong = np.flatnonzero(w >= 0)
         # Timing background: log(interval ratio) uniform over [log(min_ratio), log(2)].
@@ -250,14 +301,14 @@ class _Beam:
         """Proposals extending the live hypotheses to onset ``k``, each with the number of
         unheard bounces between that fits best."""
         p, t, h = self.p, self.t, self.h
-        idx = np.arange(first, self.used)
+        idx = first + np.flatnonzero(h["until"][first: self.used] >= t[k])
         if idx.size == 0:
             return None
         j, i = h["end"][idx], h["prev"][idx]
         last, rho = h["last"][idx], h["rho"][idx]
         new = t[k] - t[j]
         seed = np.isnan(rho)
-        r = np.exp(np.where(seed, 0.0, rho))
+        r = np.exp(np.minimum(np.where(seed, 0.0, rho), 0.0))
         # Predicted intervals over 1 … max_skip + 1 flights: last (r + r^2 + … + r^(m+1)).
         steps = np.arange(1, p.max_skip + 2)
         pred = last[:, None] * np.cumsum(r[:, None] ** steps[None, :], axis=1)
@@ -274,8 +325,12 @@ class _Beam:
         var = p.ratio_jitter ** 2 * steps[None, :] + tim2[:, None]
         gains = (-0.5 * np.log(new[:, None] / pred) ** 2 / var - 0.5 * np.log(var)
                  - 0.5 * math.log(2.0 * math.pi) + math.log(self.log_width)
-                 - (steps[None, :] - 1) * p.skip_penalty)
+                 - (steps[None, :] - 1) * p.skip_penalty
+                 - np.log1p(self._rivals(j, k) * self.log_width)[:, None])
         gains[seed, 1:] = -np.inf
+        first_flight = h["first"][idx]
+        ceiling = self._ceiling(first_flight)
+        gains[new[:, None] > steps[None, :] * ceiling[:, None]] = -np.inf
         m_best = np.argmax(gains, axis=1)
         gain = np.where(seed, self.first_gain, gains[np.arange(m_best.size), m_best])
         # The ratio this step observed (over m + 1 flights), and the single flight it ends.
@@ -292,7 +347,19 @@ class _Beam:
         lev_gain = self.level_gain(self.lev[k] - self.lev[j] - (m_best + 1) * dlev)
         dlev_new = (1 - p.level_smoothing) * dlev + p.level_smoothing * dl
         score = h["score"][idx] + self.w[k] + gain + lev_gain
-        return score, rho_new, step, dlev_new, j, h["bounce"][idx] + m_best + 1, idx
+        ok = np.isfinite(score)
+        if not ok.any():
+            return None
+        return (score[ok], rho_new[ok], step[ok], dlev_new[ok], first_flight[ok], j[ok],
+                (h["bounce"][idx] + m_best + 1)[ok], idx[ok])
+
+    def _rivals(self, j: np.ndarray, k: int) -> np.ndarray:
+        """How many candidates lie between each onset ``j`` and onset ``k``, past the first
+        :data:`ECHO_SHARE` of the flight (where onset ``j``'s own echoes and double hits
+        are)."""
+        t = self.t
+        after = np.searchsorted(t, t[j] + ECHO_SHARE * (t[k] - t[j]), side="right")
+        return np.maximum(k - after, 0)
 
     def _seeds(self, k: int) -> tuple | None:
         """New paths ``(i, k)``: a roll opens with two clearly significant onsets."""
@@ -306,10 +373,10 @@ class _Beam:
         if i.size == 0:
             return None
         score = self.w[i] + self.w[k] + self.level_gain(self.lev[k] - self.lev[i])
-        return (score, np.full(i.size, np.nan), t[k] - t[i], np.zeros(i.size), i,
+        return (score, np.full(i.size, np.nan), t[k] - t[i], np.zeros(i.size), t[k] - t[i], i,
                 np.ones(i.size, dtype=np.int64), np.full(i.size, -1, dtype=np.int64))
 
-    def _append(self, k, score, rho, last, dlev, prev, bounce, parent) -> None:
+    def _append(self, k, score, rho, last, dlev, first, prev, bounce, parent) -> None:
         """Store the hypotheses ending at ``k`` (growing the arrays if needed)."""
         h = self.h
         if self.used + score.size > h["score"].size:
@@ -319,11 +386,33 @@ class _Beam:
                 h[name] = grown
         sl = slice(self.used, self.used + score.size)
         h["score"][sl], h["rho"][sl], h["last"][sl], h["dlev"][sl] = score, rho, last, dlev
+        h["first"][sl] = first
+        h["until"][sl] = self.t[k] + self._longest_step(rho, last, first) + 1e-9
         h["end"][sl], h["prev"][sl], h["bounce"][sl], h["parent"][sl] = k, prev, bounce, parent
         top = self.used + int(np.argmax(score))
         if self.best < 0 or h["score"][top] > h["score"][self.best]:
             self.best = top
         self.used += score.size
+
+    def _longest_step(self, rho: np.ndarray, last: np.ndarray, first: np.ndarray
+                      ) -> np.ndarray:
+        """The longest step :meth:`_extend` lets each hypothesis make (seconds), so that those
+        that cannot reach an onset are not scored against it."""
+        p = self.p
+        seed = np.isnan(rho)
+        r = np.exp(np.minimum(np.where(seed, 0.0, rho), 0.0))
+        sums = np.sum(r[:, None] ** np.arange(1, p.max_skip + 2)[None, :], axis=1)
+        longest = np.where(seed, last * math.exp(3.0 * p.ratio_jitter),
+                           last * sums * math.exp(4.0 * p.ratio_jitter
+                                                  * math.sqrt(p.max_skip + 1)))
+        return np.minimum(longest, (p.max_skip + 1) * self._ceiling(first))
+
+    def _ceiling(self, first: np.ndarray) -> np.ndarray:
+        """The longest single flight of a path whose first flight was ``first``: flights do
+        not grow (beyond the scatter of a ratio), and none is longer than
+        ``max_interval_s``."""
+        p = self.p
+        return np.minimum(first * math.exp(3.0 * p.ratio_jitter), p.max_interval_s)
 
     def _compact(self, first: int) -> int:
         """Drop hypotheses that neither can be extended nor lie on a kept path, and make room
@@ -387,7 +476,7 @@ def explain(t: np.ndarray, kept_t: np.ndarray, left_out: list[int]) -> dict[int,
             k = min(int(np.searchsorted(kept_t, t[idx])) - 1, kept_t.size - 2)
             gap = t[idx] - kept_t[k]
             span = kept_t[k + 1] - kept_t[k]
-            if gap < 0.25 * span:
+            if gap < ECHO_SHARE * span:
                 out[idx] = f"echo or double hit ({1e3 * gap:.1f} ms after an impact)"
             else:
                 out[idx] = "off the bounce pattern (ring-down or noise)"
