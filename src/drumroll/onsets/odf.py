@@ -15,6 +15,7 @@ through ring-down. Bands are combined after standardising each by its own local 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -82,20 +83,32 @@ class FilterStream:
 def band_filters(params: OdfParams, sample_rate: int) -> list[FilterStream]:
     """One streaming Butterworth filter per analysis band (2nd order: cheap, and steep
     enough since neighbouring bands only need to differ, not to be disjoint)."""
+    return [FilterStream(sos.copy()) for sos in _band_sos(params, sample_rate)]
+
+
+@functools.lru_cache(maxsize=16)
+def _band_sos(params: OdfParams, sample_rate: int) -> tuple[np.ndarray, ...]:
+    """The band filters' coefficients (designed once per setting: every roll's excerpt
+    filters its audio with them again)."""
     out = []
     for lo, hi in band_edges(params, sample_rate):
         if hi is None:
             sos = signal.butter(2, lo, btype="highpass", fs=sample_rate, output="sos")
         else:
             sos = signal.butter(2, [lo, hi], btype="bandpass", fs=sample_rate, output="sos")
-        out.append(FilterStream(sos))
-    return out
+        out.append(sos)
+    return tuple(out)
 
 
 def wide_filter(params: OdfParams, sample_rate: int) -> FilterStream:
     """The high-pass (4th order) whose output the onsets are refined on."""
+    return FilterStream(_wide_sos(params, sample_rate).copy())
+
+
+@functools.lru_cache(maxsize=16)
+def _wide_sos(params: OdfParams, sample_rate: int) -> np.ndarray:
     lo = min(params.highpass_hz, 0.1 * sample_rate)
-    return FilterStream(signal.butter(4, lo, btype="highpass", fs=sample_rate, output="sos"))
+    return signal.butter(4, lo, btype="highpass", fs=sample_rate, output="sos")
 
 
 def frame_energy(y: np.ndarray, hop: int) -> np.ndarray:
