@@ -248,9 +248,13 @@ def retime_by_envelope(onsets: Roll, ex: Excerpt) -> Roll:
         near = np.abs(trials - here) <= 1.0 + 2.0 * sigma[k] * sr / width
         if near.all() or not near.any():
             continue
-        lik = np.exp(ll - ll.max())
-        if math.log(lik[~near].mean() / max(lik[near].mean(), 1e-300)) < STRONG:
+        # The log of (mean likelihood elsewhere) / (mean likelihood here), without
+        # underflow where one of them is far below the best trial.
+        log_bf = (logsumexp(ll[~near]) - math.log(np.count_nonzero(~near))
+                  - logsumexp(ll[near]) + math.log(np.count_nonzero(near)))
+        if log_bf < STRONG:
             continue
+        lik = np.exp(ll - ll.max())
         times[k], amplitude[k], snr_db[k], sigma[k] = _place(roll, trials, lik, ex,
                                                               flight_bins * width)
         pos[k] = times[k] * sr - ex.start
