@@ -13,9 +13,10 @@ roll (one hit, two, three unrelated ones), which should give none. Then the same
 (same seeds) made of real recorded hits (``data/samples``: three AVL snares in five velocity
 layers, the Sonic Pi snare in two, claves for a ball) in two measured rooms, scored the same
 way (``--no-real-hits`` skips this grid, ``--real-hits-only`` runs nothing else). Then
-throughput on a 60 s 44.1 kHz file (best of five, one core) and peak memory (tracemalloc and
-peak RSS of a fresh subprocess) on 10- and 60-minute files written blockwise, and on a
-60-minute AAC .m4a (decoded by FFmpeg into a temporary file).
+throughput on a 60 s 44.1 kHz file (best of five, one core); peak memory (peak RSS of a fresh
+subprocess, and tracemalloc's peak) and speed on 10-, 20- and 60-minute files of a roll
+every 3.2 s, written blockwise; and on a 60-minute AAC .m4a (decoded by FFmpeg into a
+temporary file).
 
 Phone recordings (``--phone-only`` runs nothing else, ``--no-phone`` skips them): the corpus
 and the real ping-pong encoded as a phone, a camera or a messaging app would (AAC 128 and
@@ -554,7 +555,7 @@ def throughput() -> None:
 
 
 _MEM_CHILD = """
-import sys, tracemalloc
+import sys, time, tracemalloc
 from drumroll.onsets import detect
 def hwm():  # this process's own peak resident set (ru_maxrss can inherit the parent's)
     for line in open("/proc/self/status"):
@@ -562,38 +563,65 @@ def hwm():  # this process's own peak resident set (ru_maxrss can inherit the pa
             return int(line.split()[1])
     return -1
 base = hwm()
-tracemalloc.start()
-detect(sys.argv[1])
-peak = tracemalloc.get_traced_memory()[1]
-print(peak, base, hwm())
+traced = sys.argv[2:] == ["traced"]
+if traced:
+    tracemalloc.start()
+c0 = time.process_time()
+table = detect(sys.argv[1])
+cpu = time.process_time() - c0
+peak = tracemalloc.get_traced_memory()[1] if traced else -1
+print(peak, base, hwm(), cpu, len(table.rolls), len(table))
 """
 
 
-def memory() -> None:
+def _measure(path: Path, traced: bool = False) -> tuple[int, int, int, float, int, int] | str:
+    """detect() on ``path`` in a fresh subprocess: peak traced bytes (-1 untraced), resident
+    kB after imports and at peak, CPU seconds of detect(), rolls and onsets; or the error."""
+    out = subprocess.run([sys.executable, "-c", _MEM_CHILD, str(path),
+                          *(["traced"] if traced else [])],
+                         capture_output=True, text=True, check=False)
+    words = out.stdout.split()
+    if len(words) != 6:
+        return out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "no output"
+    return (int(words[0]), int(words[1]), int(words[2]), float(words[3]), int(words[4]),
+            int(words[5]))
+
+
+def memory(minutes: tuple[int, ...] = (10, 20, 60), traced_up_to: int = 20) -> None:
+    """Peak memory and speed of detect() on long files of many rolls: one simulated roll
+    (30 dB) tiled back to back, a roll every 3.2 s with 1.5 s of noise between (hundreds of
+    rolls, one stretch of candidates), written blockwise as 16-bit WAV. Each file is run in
+    a fresh subprocess for its peak resident set and CPU time (one core), and again under
+    tracemalloc for Python's own peak up to ``traced_up_to`` minutes (tracemalloc slows it
+    several times)."""
     rng = np.random.default_rng(6)
     times, speeds = roll_truth(rng)
     r = render(times, speeds, sample_rate=44100, disturbances=Disturbances(snr_db=30), rng=rng)
     block = r.samples if r.samples.ndim == 1 else r.samples.mean(axis=1)
+    period = block.size / 44100
     with tempfile.TemporaryDirectory() as d:
-        for minutes in (10, 60):
-            path = Path(d) / f"{minutes}min.wav"
+        for m in minutes:
+            path = Path(d) / f"{m}min.wav"
             with sf.SoundFile(path, "w", 44100, 1, subtype="PCM_16") as f:
                 written = 0
-                while written < minutes * 60 * 44100:
+                while written < m * 60 * 44100:
                     f.write(block)
                     written += block.size
-            t0 = time.perf_counter()
-            out = subprocess.run([sys.executable, "-c", _MEM_CHILD, str(path)],
-                                 capture_output=True, text=True, check=False)
-            el = time.perf_counter() - t0
-            words = out.stdout.split()
-            if len(words) == 3:
-                peak, base, rss = (int(w) for w in words)
-                mb = (f"peak traced {peak / 2**20:.1f} MB, peak RSS {rss / 1024:.0f} MB "
-                      f"({base / 1024:.0f} MB after imports)")
-            else:
-                mb = out.stderr[-200:]
-            print(f"memory: {minutes} min file: {mb}, {el:.1f} s")
+            tiles = int(np.ceil(m * 60 / period))
+            got = _measure(path)
+            if isinstance(got, str):
+                print(f"memory: {m} min file ({tiles} rolls): {got}")
+                continue
+            _, base, rss, cpu, rolls, onsets = got
+            line = (f"memory: {m} min file ({tiles} rolls written, {rolls} found, {onsets} "
+                    f"onsets): peak RSS {rss / 1024:.0f} MB ({base / 1024:.0f} MB after "
+                    f"imports), {cpu:.1f} s CPU = {m * 60 / cpu:.0f}x real time")
+            if m <= traced_up_to:
+                traced = _measure(path, traced=True)
+                if not isinstance(traced, str):
+                    line += f", peak traced {traced[0] / 2**20:.1f} MB"
+            print(line)
+            sys.stdout.flush()
             path.unlink()
 
 
@@ -634,18 +662,14 @@ def memory_m4a(minutes: int = 60) -> None:
               f"written in {time.perf_counter() - t0:.0f} s: WAV "
               f"{wav.stat().st_size / 1e6:.0f} MB, .m4a {m4a.stat().st_size / 1e6:.0f} MB")
         for path in (wav, m4a):
-            t0 = time.perf_counter()
-            out = subprocess.run([sys.executable, "-c", _MEM_CHILD, str(path)],
-                                 capture_output=True, text=True, check=False)
-            el = time.perf_counter() - t0
-            words = out.stdout.split()
-            if len(words) == 3:
-                peak, base, rss = (int(w) for w in words)
-                mb = (f"peak traced {peak / 2**20:.1f} MB, peak RSS {rss / 1024:.0f} MB "
-                      f"({base / 1024:.0f} MB after imports)")
-            else:
-                mb = out.stderr[-300:]
-            print(f"memory: {minutes} min {path.suffix}: {mb}, {el:.1f} s")
+            got = _measure(path, traced=True)
+            if isinstance(got, str):
+                print(f"memory: {minutes} min {path.suffix}: {got}")
+                continue
+            peak, base, rss, cpu, rolls, onsets = got
+            print(f"memory: {minutes} min {path.suffix} ({rolls} rolls, {onsets} onsets): "
+                  f"peak traced {peak / 2**20:.1f} MB, peak RSS {rss / 1024:.0f} MB "
+                  f"({base / 1024:.0f} MB after imports), {cpu:.1f} s CPU under tracemalloc")
 
 
 def main() -> None:
