@@ -31,6 +31,7 @@ from drumroll.inference.likelihood import (
 )
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.results import Onset, Summary
 from drumroll.onsets import OnsetTable
 from drumroll.pipeline import choose_roll, estimate
 from drumroll.reporting.outputs import load_posteriors
@@ -219,18 +220,18 @@ def test_a_gap_is_fitted_like_the_whole_roll(fits):
     assert fits["gap_status"] == 0
     gap = json.loads((fits["out"] / "summary.json").read_text())
     full, closed = fits["full"].summary, fits["closed"].summary
-    assert gap["n_onsets"] == N_ONSETS - 1 and full["n_onsets"] == N_ONSETS
+    assert gap["n_onsets"] == N_ONSETS - 1 and full.n_onsets == N_ONSETS
     for name, truth in (("alpha", ALPHA), ("t_b", T_B)):
-        a, b = full["parameters"][name], gap["parameters"][name]
-        assert abs(a["mean"] - b["mean"]) < 0.5 * max(a["sd"], b["sd"]), name
-        for fit in (a, b):
-            assert fit["hdi_low"] < truth < fit["hdi_high"], name
+        a, b = full.parameters[name], gap["parameters"][name]
+        assert abs(a.mean - b["mean"]) < 0.5 * max(a.sd, b["sd"]), name
+        assert a.hdi_low < truth < a.hdi_high, name
+        assert b["hdi_low"] < truth < b["hdi_high"], name
     # The same onsets without their bounce numbers take the gap for one long flight: the
     # fit is off by many of the gapped fit's sd, and needs a jitter of milliseconds.
-    wrong = closed["parameters"]
-    assert abs(wrong["alpha"]["mean"] - ALPHA) > 10 * gap["parameters"]["alpha"]["sd"]
-    assert abs(wrong["t_b"]["mean"] - T_B) > 10 * gap["parameters"]["t_b"]["sd"]
-    assert wrong["jitter_ms"]["mean"] > 10 * JITTER * 1e3
+    wrong = closed.parameters
+    assert abs(wrong["alpha"].mean - ALPHA) > 10 * gap["parameters"]["alpha"]["sd"]
+    assert abs(wrong["t_b"].mean - T_B) > 10 * gap["parameters"]["t_b"]["sd"]
+    assert wrong["jitter_ms"].mean > 10 * JITTER * 1e3
     assert gap["parameters"]["jitter_ms"]["mean"] < 2 * JITTER * 1e3
 
 
@@ -257,11 +258,13 @@ def test_summary_report_and_posterior_name_the_missing_bounce(fits):
 
 
 def test_figures_leave_out_the_flights_next_to_a_gap(fits):
-    from drumroll.reporting.bounce_series import observed_flights
+    from drumroll.inference.summary import observed_flights
     from drumroll.reporting.residuals import onset_residuals
 
     idata = load_posteriors(fits["out"] / "posterior.nc")["powerlaw"]
-    flights, errors = observed_flights(idata)
+    observed = observed_flights(idata)
+    flights = np.array(observed.time_s, dtype=float)
+    errors = np.array(observed.err_s, dtype=float)
     assert flights.size == N_ONSETS - 1
     missing = [GAP - 1, GAP]  # flights GAP and GAP + 1 (entries k − 1)
     assert np.isnan(flights[missing]).all() and np.isnan(errors[missing]).all()
@@ -320,14 +323,14 @@ def test_roll_chosen_by_number_in_the_api(two_roll_csv):
     path, config = two_roll_csv
     result = estimate(path, config, roll=0)
     summary = result.summary
-    assert summary["roll"] == 0 and summary["n_onsets"] == 6
-    assert summary["missing_bounces"] == [3]
-    assert summary["notes"] == [
+    assert summary.roll == 0 and summary.n_onsets == 6
+    assert summary.missing_bounces == (3,)
+    assert summary.notes == (
         "the recording holds 2 rolls (onsets 6, 12); fitting roll 0, as asked",
-        "bounce 3 missing (inaudible or masked): fitted as gap"]
+        "bounce 3 missing (inaudible or masked): fitted as gap")
     assert result.onsets.rolls == (0,) and len(result.onsets) == 6
     lines = terminal_table(result).splitlines()  # the notes come before the numbers
-    assert lines[:3] == [f"note: {note}" for note in summary["notes"]] + ["powerlaw: 6 onsets"]
+    assert lines[:3] == [f"note: {note}" for note in summary.notes] + ["powerlaw: 6 onsets"]
 
 
 def test_a_roll_beyond_those_present_is_one_line_before_sampling(two_roll_csv, tmp_path,
@@ -370,18 +373,13 @@ def test_runs_files_take_a_roll_per_run(tmp_path, capsys):
 
 # -- the report on its own -----------------------------------------------------------------------
 def test_report_notes_and_onset_table_from_a_summary():
-    onsets = [{"time_s": 1.0, "sigma_s": 0.0, "bounce": 0},
-              {"time_s": 1.4, "sigma_s": 0.0, "bounce": 1},
-              {"time_s": 1.95, "sigma_s": 0.0, "bounce": 3}]
+    onsets = (Onset(1.0, 0.0, 0), Onset(1.4, 0.0, 1), Onset(1.95, 0.0, 3))
     lines = onsets_section(onsets)
     assert "| 1 | 1.400000 | 400.000 |" in lines
     assert "| 3 | 1.950000 | — (after a gap) |" in lines
-    # summaries written before bounce numbers existed: 0, 1, 2, …
-    old = onsets_section([{"time_s": t, "sigma_s": 0.0} for t in (1.0, 1.4, 1.7)])
-    assert "| 2 | 1.700000 | 300.000 |" in old
-    text = render_report({"model": "powerlaw", "n_onsets": 3, "roll": 2, "n_rolls": 3,
-                          "notes": ["bounce 2 missing (inaudible or masked): fitted as gap"],
-                          "parameters": {}, "onsets": onsets})
+    text = render_report(Summary(
+        model="powerlaw", n_onsets=3, roll=2, n_rolls=3, onsets=onsets,
+        notes=("bounce 2 missing (inaudible or masked): fitted as gap",)))
     assert "3 onsets (roll 2 of 3)" in text
     assert "> **Note:** bounce 2 missing (inaudible or masked): fitted as gap." in text
 
@@ -408,9 +406,8 @@ def test_a_tables_notes_carry_each_runs_notes(tmp_path):
     (tmp_path / "base.toml").write_text(BASE)
     write_onsets(tmp_path / "h80.txt", "table2_h80")
     (tmp_path / "runs.toml").write_text(runs_text(RUN_H80))
-    row = fake_row(0.9, 0.25)
-    row["notes"] = ["bounce 3 missing (inaudible or masked): fitted as gap"]
+    note = "bounce 3 missing (inaudible or masked): fitted as gap"
+    row = fake_row(0.9, 0.25, notes=(note,))
     result = TableResult(runs=load_runs(tmp_path / "runs.toml"), rows=[row])
-    assert "Note (h80): bounce 3 missing (inaudible or masked): fitted as gap." in render(
-        result, "markdown")
-    assert json.loads(render(result, "json"))["rows"][0]["notes"] == row["notes"]
+    assert f"Note (h80): {note}." in render(result, "markdown")
+    assert json.loads(render(result, "json"))["rows"][0]["notes"] == [note]

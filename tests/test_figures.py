@@ -17,11 +17,13 @@ import numpy as np
 import pytest
 
 from drumroll.errors import DrumrollError
+from drumroll.inference.comparison import compare_models
+from drumroll.inference.results import ComparisonRow, Diagnostics, ModelSummary, Summary
+from drumroll.inference.summary import flight_series, observed_flights, parameter_summary
 from drumroll.reporting import plot_style
-from drumroll.reporting.bounce_series import observed_flights
 from drumroll.reporting.comparison_plot import plot_comparison
 from drumroll.reporting.corner_plot import corner_parameters, draw_corner, quantile_title
-from drumroll.reporting.figures import FIGURE_FILES, loo_comparison, write_figures
+from drumroll.reporting.figures import FIGURES, FigureInputs, figure_files, write_figures
 from drumroll.reporting.residuals import lag_one_correlation, onset_residuals
 from drumroll.reporting.trace_plot import plot_trace
 
@@ -109,11 +111,34 @@ def idatas(observed) -> dict[str, az.InferenceData]:
             "powerlaw": make_idata("powerlaw", times, sigmas, 4)}
 
 
+def summarise(idatas: dict[str, az.InferenceData], main: str) -> Summary:
+    """The summary the pipeline would give these fits, made by the same functions."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rows, preferred, verdict, loos = compare_models(idatas, main)
+    models = {m: ModelSummary(parameters=parameter_summary(d), flights=flight_series(d))
+              for m, d in idatas.items()}
+    return Summary(model=main, n_onsets=N_ONSETS, parameters=models[main].parameters,
+                   models=models, observed_flights=observed_flights(idatas[main]),
+                   comparison=rows, preferred=preferred, verdict=verdict,
+                   diagnostics={m: Diagnostics() for m in idatas},
+                   loo={m: loo.summary() for m, loo in loos.items()})
+
+
+def inputs_of(idatas: dict[str, az.InferenceData], main: str,
+              truths: dict[str, float] | None = None) -> FigureInputs:
+    return FigureInputs(idatas=idatas, summary=summarise(idatas, main), truths=truths)
+
+
 @pytest.fixture(scope="module")
-def written(idatas, tmp_path_factory) -> dict[str, Path]:
-    out = tmp_path_factory.mktemp("figures")
-    return write_figures(idatas, "pendulum", out, None,
-                         truths={"alpha": 0.88, "pivot_mm": 131.0, "not_a_parameter": 1.0})
+def inputs(idatas) -> FigureInputs:
+    return inputs_of(idatas, "pendulum",
+                     truths={"alpha": 0.88, "pivot_mm": 131.0, "not_a_parameter": 1.0})
+
+
+@pytest.fixture(scope="module")
+def written(inputs, tmp_path_factory) -> dict[str, Path]:
+    return write_figures(inputs, tmp_path_factory.mktemp("figures"))
 
 
 def png_size(path: Path) -> tuple[int, int]:
@@ -124,23 +149,24 @@ def png_size(path: Path) -> tuple[int, int]:
     return struct.unpack(">II", data[16:24])
 
 
-def test_every_figure_is_written_as_a_sensible_png(written):
-    assert set(written) == set(FIGURE_FILES)
+def test_every_figure_is_written_as_a_sensible_png(written, inputs):
+    files = figure_files(inputs)
+    assert set(written) == set(files) == set(FIGURES) - {"onsets"}  # no audio here
     for key, path in written.items():
-        assert path.name == FIGURE_FILES[key]
+        assert path.name == FIGURES[key].file
         assert path.stat().st_size > 10_000, f"{path.name} is suspiciously small"
         width, height = png_size(path)
         assert 500 <= width <= 3000 and 300 <= height <= 3000, (path.name, width, height)
     # no temporary files left behind
     assert sorted(p.name for p in next(iter(written.values())).parent.iterdir()) == \
-        sorted(FIGURE_FILES.values())
+        sorted(files.values())
 
 
-def test_existing_figures_are_not_overwritten(idatas, written):
+def test_existing_figures_are_not_overwritten(inputs, written):
     out = next(iter(written.values())).parent
     before = {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in out.iterdir()}
     with pytest.raises(DrumrollError, match="already exists"):
-        write_figures(idatas, "pendulum", out, None)
+        write_figures(inputs, out)
     after = {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in out.iterdir()}
     assert before == after
 
@@ -148,56 +174,52 @@ def test_existing_figures_are_not_overwritten(idatas, written):
 def test_single_plot_refuses_then_overwrites_when_asked(idatas, tmp_path):
     path = tmp_path / "trace.png"
     path.write_bytes(b"old")
+    stats = parameter_summary(idatas["powerlaw"])
     with pytest.raises(DrumrollError):
-        plot_trace(idatas["powerlaw"], path)
+        plot_trace(idatas["powerlaw"], stats, path)
     assert path.read_bytes() == b"old"
-    plot_trace(idatas["powerlaw"], path, overwrite=True)
+    plot_trace(idatas["powerlaw"], stats, path, overwrite=True)
     png_size(path)
 
 
-def test_unknown_main_model_and_missing_folder_are_user_errors(idatas, tmp_path):
+def test_unknown_main_model_and_missing_folder_are_user_errors(idatas, inputs, tmp_path):
+    other = FigureInputs(idatas={"pendulum": idatas["pendulum"]},
+                         summary=Summary(model="bouncing-ball"))
     with pytest.raises(DrumrollError, match="not fitted"):
-        write_figures(idatas, "bouncing-ball", tmp_path)
+        write_figures(other, tmp_path)
     with pytest.raises(DrumrollError, match="no such directory"):
-        write_figures(idatas, "pendulum", tmp_path / "missing")
+        write_figures(inputs, tmp_path / "missing")
 
 
-def test_one_model_with_given_comparison_and_bayes_factors(idatas, tmp_path):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        loos = {m: az.loo(d, pointwise=True) for m, d in idatas.items()}
-    rows = []
-    for model, loo in loos.items():
-        diff = np.asarray(loo.loo_i) - np.asarray(loos["pendulum"].loo_i)
-        rows.append({"model": model, "elpd_loo": float(loo.elpd_loo),
-                     "elpd_loo_se": float(loo.se), "elpd_loo_diff": float(diff.sum()),
-                     "elpd_loo_diff_se": float(np.sqrt(diff.size * diff.var())),
-                     "log_bayes_factor": 0.0 if model == "pendulum" else -12.3,
-                     "log_bayes_factor_err": 0.2})
-    path = plot_comparison(rows, "pendulum", tmp_path / "comparison.png")
+def test_comparison_with_bayes_factors_and_a_single_model(idatas, inputs, tmp_path):
+    summary = inputs.summary
+    rows = tuple(ComparisonRow(**{**r.to_json(), "pareto_k_bad": (),
+                                  "log_bayes_factor": 12.3, "log_bayes_factor_err": 0.2})
+                 for r in summary.comparison)
+    path = plot_comparison(rows, summary.loo, "pendulum", tmp_path / "comparison.png")
     width, _ = png_size(path)
     assert width > 900  # two panels
-    single = {"powerlaw": idatas["powerlaw"]}
-    written = write_figures(single, "powerlaw", tmp_path / ".", None, overwrite=True)
-    assert set(written) == set(FIGURE_FILES)
+    single = inputs_of({"powerlaw": idatas["powerlaw"]}, "powerlaw")
+    written = write_figures(single, tmp_path / ".", overwrite=True)
+    assert "comparison" not in written  # nothing to compare with
+    assert set(written) == set(FIGURES) - {"onsets", "comparison"}
 
 
-def test_loo_comparison_is_model_minus_main(idatas):
-    rows = {r["model"]: r for r in loo_comparison(idatas, "pendulum")}
-    assert rows["pendulum"]["elpd_loo_diff"] == pytest.approx(0.0)
-    assert rows["pendulum"]["elpd_loo_diff_se"] == pytest.approx(0.0)
-    diff = rows["small-angle"]["elpd_loo"] - rows["pendulum"]["elpd_loo"]
-    assert rows["small-angle"]["elpd_loo_diff"] == pytest.approx(diff)
-    assert rows["small-angle"]["elpd_loo_diff_se"] > 0
+def test_comparison_rows_are_main_minus_model(inputs):
+    summary = inputs.summary
+    rows = {r.model: r for r in summary.comparison}
+    diff = summary.loo["pendulum"].elpd_loo - summary.loo["small-angle"].elpd_loo
+    assert rows["small-angle"].elpd_loo_diff == pytest.approx(diff)
+    assert rows["small-angle"].elpd_loo_diff_se > 0
 
 
 def test_observed_flight_errors_combine_jitter_and_onset_sigmas(idatas, observed):
     times, sigmas = observed
-    t, err = observed_flights(idatas["pendulum"])
-    np.testing.assert_allclose(t, np.diff(times))
+    flights = observed_flights(idatas["pendulum"])
+    np.testing.assert_allclose(flights.time_s, np.diff(times))
     jitter = float(np.median(idatas["pendulum"].posterior["jitter_ms"])) * 1e-3
     var = jitter**2 + sigmas**2
-    np.testing.assert_allclose(err, np.sqrt(var[:-1] + var[1:]))
+    np.testing.assert_allclose(flights.err_s, np.sqrt(var[:-1] + var[1:]))
 
 
 def test_residuals_are_relative_to_the_median_prediction(idatas, observed):

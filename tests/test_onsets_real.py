@@ -205,5 +205,5 @@ def test_the_real_ping_pong_fits_the_reference_power_law():
 
     result = drumroll.estimate(DATA / "pingpong.wav", DATA / "pingpong.toml")
     alpha, t_b = result.parameter("alpha"), result.parameter("t_b")
-    assert abs(alpha["mean"] - 0.946) < 0.001
-    assert abs(t_b["mean"] - 0.194) < 0.002
+    assert abs(alpha.mean - 0.946) < 0.001
+    assert abs(t_b.mean - 0.194) < 0.002

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from drumroll.errors import DrumrollError
+from drumroll.inference.results import ParameterSummary, Summary
 from drumroll.reporting.numbers import format_value_error
 from drumroll.reporting.report import format_estimate, render_report, write_report
 
@@ -19,8 +20,8 @@ def _stats(mean: float, sd: float, r_hat: float = 1.002, ess: float = 1500.0) ->
 
 
 @pytest.fixture()
-def summary() -> dict:
-    return {
+def summary() -> Summary:
+    return Summary.from_json({
         "model": "pendulum", "n_onsets": 21,
         "parameters": {
             "t_b": _stats(0.25311, 0.00052),
@@ -33,8 +34,6 @@ def summary() -> dict:
                      "ess_bulk": None, "ess_tail": None},
         },
         "comparison": [
-            {"model": "pendulum", "elpd_loo_diff": 0.0, "elpd_loo_diff_se": 0.0,
-             "log_bayes_factor": 0.0, "log_bayes_factor_err": 0.0},
             {"model": "small-angle", "elpd_loo_diff": 63.14, "elpd_loo_diff_se": 6.77,
              "log_bayes_factor": 55.2, "log_bayes_factor_err": 0.4},
             {"model": "powerlaw", "elpd_loo_diff": 62.98, "elpd_loo_diff_se": 6.75,
@@ -49,11 +48,12 @@ def summary() -> dict:
             "powerlaw": {"converged": True, "n_steps": 1500, "tau_max": 15.0,
                          "acceptance": 0.44, "warnings": []},
         },
-        "onsets": [{"time_s": 1.2, "sigma_s": 1e-4}, {"time_s": 1.45, "sigma_s": 1e-4},
-                   {"time_s": 1.65, "sigma_s": 0.0}],
+        "onsets": [{"time_s": 1.2, "sigma_s": 1e-4, "bounce": 0},
+                   {"time_s": 1.45, "sigma_s": 1e-4, "bounce": 1},
+                   {"time_s": 1.65, "sigma_s": 0.0, "bounce": 2}],
         "config": {"model": "pendulum", "stick": {"length_mm": 348.0}},
         "version": "0.1.0", "source": "/recordings/roll.flac",
-    }
+    })
 
 
 @pytest.fixture()
@@ -88,7 +88,7 @@ def test_report_has_title_table_rows_comparison_and_figure_links(summary, figure
     assert "| power law (`powerlaw`) | 63 ± 7 | — |" in text
     assert "0 (reference)" in text
     assert "**Preferred model:** exact pendulum" in text
-    assert summary["verdict"] in text
+    assert summary.verdict in text
     # diagnostics in plain words, pipes escaped
     assert "**not converged**" in text and "longest autocorrelation time 72 steps" in text
     assert "⚠ chain shorter than 50 autocorrelation times | rerun" in text
@@ -122,8 +122,7 @@ def test_existing_report_is_not_overwritten(summary, figures, tmp_path):
 
 
 def test_minimal_summary_still_renders():
-    text = render_report({"model": "powerlaw", "parameters": {}, "comparison": [],
-                          "preferred": None, "diagnostics": {}})
+    text = render_report(Summary(model="powerlaw"))
     assert "# Drumroll estimate" in text
     assert "Only one model was fitted" in text
     assert "No sampler diagnostics" in text
@@ -139,4 +138,4 @@ def test_minimal_summary_still_renders():
     ({"mean": math.nan, "sd": 0.1}, ("—", "—")),
 ])
 def test_format_estimate(stats, expected):
-    assert format_estimate(stats) == expected
+    assert format_estimate(ParameterSummary.from_json(stats)) == expected

@@ -12,8 +12,15 @@ import pytest
 
 import drumroll.table.execute as execute
 from drumroll.cli.main import main
+from drumroll.inference.results import (
+    FlightSeries,
+    ModelSummary,
+    ObservedFlights,
+    ParameterSummary,
+    Summary,
+)
 from drumroll.table import load_runs, render
-from drumroll.table.execute import TableResult, run_key
+from drumroll.table.execute import Estimate, RunRow, TableResult, run_key
 from drumroll.table.plot import plot_table
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -147,20 +154,22 @@ def test_parsed_runs(folder):
     assert run_key(load_runs(folder / "runs.toml").runs[0]) != key
 
 
-def fake_row(alpha: float, t_b: float, n: int = 10) -> dict:
+def fake_row(alpha: float, t_b: float, n: int = 10, notes: tuple[str, ...] = ()) -> RunRow:
+    """A table row as ``estimate`` would give it, with chosen α and t_B."""
     k = np.arange(1, n + 1)
     median = t_b * alpha**k
-    return {
-        "schema": 1, "model": "pendulum", "n_onsets": n + 1,
-        "computed_t_b": {"small-angle": {"value": 0.2509, "err": 0.0061},
-                         "pendulum": {"value": 0.2531, "err": 0.0062}},
-        "fitted_t_b": {"value": t_b, "err": 0.0093}, "alpha": {"value": alpha, "err": 0.0102},
-        "parameters": {}, "preferred": None, "verdict": "undecided", "warnings": [],
-        "flights": {"observed": (median * 1.01).tolist(), "observed_err": [1e-3] * n,
-                    "lo": (median * 0.99).tolist(), "median": median.tolist(),
-                    "hi": (median * 1.01).tolist()},
-        "seconds": 1.0,
-    }
+    flights = FlightSeries(median=tuple(median), low=tuple(median * 0.99),
+                           high=tuple(median * 1.01))
+    parameters = {"alpha": ParameterSummary(mean=alpha, sd=0.0102),
+                  "t_b": ParameterSummary(mean=t_b, sd=0.0093)}
+    summary = Summary(
+        model="pendulum", n_onsets=n + 1, notes=notes, parameters=parameters,
+        models={"pendulum": ModelSummary(parameters=parameters, flights=flights)},
+        observed_flights=ObservedFlights(time_s=tuple(median * 1.01), err_s=(1e-3,) * n),
+        verdict="undecided")
+    return RunRow(summary=summary, seconds=1.0,
+                  computed_t_b={"small-angle": Estimate(0.2509, 0.0061),
+                                "pendulum": Estimate(0.2531, 0.0062)})
 
 
 @pytest.fixture

@@ -59,7 +59,7 @@ def test_a_new_run_is_the_only_one_computed(folder, tmp_path):
     with ProcessPoolExecutor(max_workers=2) as pool:
         result = run_table(load_runs(folder / "runs3.toml"), executor=pool)
     assert result.computed == ["h80-again"]
-    assert abs(result.rows[2]["alpha"]["value"] - 0.90) < 0.01
+    assert abs(result.rows[2].alpha.value - 0.90) < 0.01
 
 
 def test_corrupt_cache_entry_is_recomputed(folder, tmp_path):
@@ -70,7 +70,7 @@ def test_corrupt_cache_entry_is_recomputed(folder, tmp_path):
     entry.write_text("{not json")
     again = run_table(runs, cache_dir=cache, workers=1)
     assert len(again.computed) == 1
-    assert again.rows[0]["alpha"] == first.rows[0]["alpha"]  # same seed, same numbers
+    assert again.rows[0].alpha == first.rows[0].alpha  # same seed, same numbers
 
 
 def test_dask_executor(folder, capsys):
@@ -85,7 +85,7 @@ def test_dask_executor(folder, capsys):
     cached = run_table(load_runs(folder / "runs.toml"))
     assert cached.computed == []
     for row, again in zip(json.loads(out)["rows"], cached.rows, strict=True):
-        assert row["alpha"]["value"] == pytest.approx(again["alpha"]["value"], rel=1e-12)
+        assert row["alpha"]["value"] == pytest.approx(again.alpha.value, rel=1e-12)
 
 
 def test_a_failing_run_is_one_line_and_the_others_stay_cached(folder, tmp_path, capsys):

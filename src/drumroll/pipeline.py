@@ -34,6 +34,13 @@ from drumroll.inference.evidence import Evidence, choose_evidence
 from drumroll.inference.inference_data import build_inference_data, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.results import (
+    EvidenceSummary,
+    ModelSummary,
+    Onset,
+    ParameterSummary,
+    Summary,
+)
 from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.onsets import OnsetTable, detect, read_onsets
@@ -57,7 +64,9 @@ Progress = Callable[[str], None]
 
 @dataclass
 class ModelFit:
-    """One model's fit: its posterior, chain, InferenceData and evidence (with its check)."""
+    """One model's fit: its posterior, chain, InferenceData (thinned to at most
+    :data:`MAX_DRAWS` draws), evidence (with its check), and the summaries of its posterior
+    variables computed on every draw."""
 
     model: str
     log_posterior: LogPosterior
@@ -66,6 +75,7 @@ class ModelFit:
     evidence: Evidence | None
     evidence_check: Evidence | None
     seconds: dict[str, float]
+    stats: dict[str, ParameterSummary] = field(default_factory=dict)
 
 
 @dataclass
@@ -75,13 +85,14 @@ class Result:
     Attributes
     ----------
     summary
-        The ``summary.json`` contract.
+        What was found (:class:`~drumroll.inference.results.Summary`; ``summary.json`` is its
+        :meth:`~drumroll.inference.results.Record.to_json`).
     fits
         Model name → :class:`ModelFit`, main model first.
     onsets
         The onsets that were fitted: one roll, bounce numbers counted from its first onset
-        (``summary["roll"]`` says which roll of the source, ``summary["notes"]`` what else
-        the user should know about it).
+        (``summary.roll`` says which roll of the source, ``summary.notes`` what else the user
+        should know about it).
     config
         The config used.
     source
@@ -92,7 +103,7 @@ class Result:
         PSIS-LOO of each model (computed on every draw; the figures reuse it).
     """
 
-    summary: dict[str, Any]
+    summary: Summary
     fits: dict[str, ModelFit]
     onsets: OnsetTable
     config: Config
@@ -102,19 +113,22 @@ class Result:
 
     @property
     def model(self) -> str:
-        return self.summary["model"]
+        """The main model."""
+        return self.summary.model
 
     @property
     def preferred(self) -> str | None:
-        return self.summary["preferred"]
+        """The model the comparison prefers (None: the data cannot tell)."""
+        return self.summary.preferred
 
     @property
     def idatas(self) -> dict[str, az.InferenceData]:
+        """Model name → InferenceData (thinned to at most :data:`MAX_DRAWS` draws)."""
         return {name: fit.idata for name, fit in self.fits.items()}
 
-    def parameter(self, name: str) -> dict[str, float]:
-        """The main model's summary of one parameter (``alpha``, ``t_b``, …)."""
-        return self.summary["parameters"][name]
+    def parameter(self, name: str) -> ParameterSummary:
+        """The main model's summary of one quantity (``alpha``, ``t_b``, …)."""
+        return self.summary.parameters[name]
 
 
 def load_onsets(source: str | os.PathLike[str] | OnsetTable, **options: Any) -> OnsetTable:
@@ -229,25 +243,19 @@ def reported_draws(log_posterior: LogPosterior, seed: int, draws: np.ndarray
     return parameter_draws(log_posterior, draws, np.random.default_rng(seed))[0]
 
 
-def evidence_summary(evidence: Evidence, check: Evidence | None) -> tuple[dict, str | None]:
-    """The ``summary.json`` entry of one model's evidence, and a warning if the two
-    independent estimates (nested sampling, importance sampling) disagree.
-
-    ``method`` says which estimator gave ``log_z``; ``pareto_k`` and ``importance_ess`` are
-    importance sampling's diagnostics, ``fallback`` why nested sampling was used instead of
-    it (None when it was not, or was asked for), and ``importance_log_z`` its own estimate
-    when nested sampling gave ``log_z``.
-    """
-    entry: dict[str, Any] = {"log_z": evidence.log_z, "log_z_err": evidence.log_z_err,
-                             "method": evidence.method, "n_calls": evidence.n_calls,
-                             "fallback": None}
+def evidence_summary(evidence: Evidence, check: Evidence | None
+                     ) -> tuple[EvidenceSummary, str | None]:
+    """The summary of one model's evidence, and a warning if the two independent estimates
+    (nested sampling, importance sampling) disagree."""
+    entry = EvidenceSummary(log_z=evidence.log_z, log_z_err=evidence.log_z_err,
+                            method=evidence.method, n_calls=evidence.n_calls)
     if evidence.method == "importance":
-        entry.update(pareto_k=evidence.pareto_k, importance_ess=evidence.ess)
+        entry = replace(entry, pareto_k=evidence.pareto_k, importance_ess=evidence.ess)
     if check is None:
         return entry, None
-    entry.update(importance_log_z=check.log_z, importance_log_z_err=check.log_z_err,
-                 importance_ess=check.ess, pareto_k=check.pareto_k,
-                 fallback=check.failure if check.method == "importance" else None)
+    entry = replace(entry, importance_log_z=check.log_z, importance_log_z_err=check.log_z_err,
+                    importance_ess=check.ess, pareto_k=check.pareto_k,
+                    fallback=check.failure if check.method == "importance" else None)
     if check.method == "importance" and not check.trusted:
         return entry, None  # the cheap estimate failed its own check: nothing to compare
     tolerance = 3.0 * math.hypot(evidence.log_z_err, check.log_z_err)
@@ -385,7 +393,12 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
     from drumroll.inference.comparison import compare_models
-    from drumroll.inference.summary import diagnostics, parameter_summary
+    from drumroll.inference.summary import (
+        diagnostics,
+        flight_series,
+        observed_flights,
+        parameter_summary,
+    )
 
     started = time.perf_counter()
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
@@ -402,41 +415,38 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         if fit.evidence is not None:
             evidence_entries[m], warning = evidence_summary(fit.evidence, fit.evidence_check)
             if warning:
-                model_diagnostics[m]["warnings"].append(f"{m}: {warning}")
+                model_diagnostics[m] = replace(
+                    model_diagnostics[m],
+                    warnings=(*model_diagnostics[m].warnings, f"{m}: {warning}"))
+    models_summary: dict[str, ModelSummary] = {}
+    observed = observed_flights(main.idata)
     for model, fit in fits.items():
-        # Every draw's R-hat and ESS travel with the variables (posterior.nc, trace.png),
+        # Every draw's R-hat and ESS travel with the variables (for posterior.nc's readers),
         # since the stored posterior is thinned below.
         stats = parameters if model == config.model else parameter_summary(fit.idata,
                                                                             settings.hdi_prob)
+        fit.stats = stats
+        models_summary[model] = ModelSummary(parameters=stats,
+                                             flights=flight_series(fit.idata, settings.hdi_prob))
         for name, values in fit.idata.posterior.data_vars.items():
-            values.attrs.update({key: stats[name][key] for key in ("r_hat", "ess_bulk",
-                                                                    "ess_tail")
-                                 if stats[name][key] is not None})
+            # For the readers of posterior.nc, whose draws are thinned below.
+            values.attrs.update({key: getattr(stats[name], key) for key in (
+                "r_hat", "ess_bulk", "ess_tail") if getattr(stats[name], key) is not None})
         fit.idata = thin_draws(fit.idata, MAX_DRAWS)
-    summary = {
-        "model": config.model,
-        "n_onsets": len(onsets),
-        "roll": fitted.roll,
-        "n_rolls": len(fitted.sizes),
-        "missing_bounces": data.missing,
-        "notes": fitted.notes,
-        "parameters": parameters,
-        "fixed": {BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
-                  for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
-        "comparison": rows,
-        "preferred": preferred,
-        "verdict": verdict,
-        "diagnostics": model_diagnostics,
-        "evidence": evidence_entries,
-        "onsets": [{"time_s": float(t), "sigma_s": float(s), "bounce": int(k)}
-                   for t, s, k in zip(onsets.time_s, onsets.sigma_s, data.bounces,
-                                      strict=True)],
-        "config": config.raw,
-        "source": None if isinstance(source, OnsetTable) else str(source),
-        "version": __version__,
-        "seconds": {**seconds, **{f"{m}_{k}": v for m, f in fits.items()
-                                  for k, v in f.seconds.items()}},
-    }
+    summary = Summary(
+        model=config.model, n_onsets=len(onsets), roll=fitted.roll, n_rolls=len(fitted.sizes),
+        missing_bounces=tuple(data.missing), notes=tuple(fitted.notes), parameters=parameters,
+        models=models_summary, observed_flights=observed,
+        fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
+               for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
+        comparison=rows, preferred=preferred, verdict=verdict, diagnostics=model_diagnostics,
+        evidence=evidence_entries, loo={m: loos[m].summary() for m in fits},
+        onsets=tuple(Onset(float(t), float(s), int(k)) for t, s, k in zip(
+            onsets.time_s, onsets.sigma_s, data.bounces, strict=True)),
+        config=config.raw, source=None if isinstance(source, OnsetTable) else str(source),
+        version=__version__,
+        seconds={**seconds, **{f"{m}_{k}": v for m, f in fits.items()
+                               for k, v in f.seconds.items()}})
     recording = None if isinstance(source, OnsetTable) else Path(source)
     if recording is not None and onset_options.get("stream") is not None:
         # The onset figure reads the audio stream the onsets came from.

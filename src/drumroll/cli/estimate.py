@@ -124,28 +124,26 @@ def terminal_table(result: Result) -> str:
     """The notes on the onsets (other rolls, missing bounces), then the compact table:
     parameter, mean, sd, interval, R-hat, ESS; then the verdict."""
     summary = result.summary
-    parameters = summary["parameters"]
-    hdi = next(iter(parameters.values()))["hdi_prob"]
-    lines = [f"note: {note}" for note in summary.get("notes", [])]
-    lines += [f"{summary['model']}: {summary['n_onsets']} onsets",
-             f"{'parameter':<22} {'mean ± sd':>22} {f'{hdi:.0%} interval':>24} "
-             f"{'R-hat':>7} {'ESS':>6}"]
+    parameters = summary.parameters
+    hdi = next(iter(parameters.values())).hdi_prob
+    lines = [f"note: {note}" for note in summary.notes]
+    lines += [f"{summary.model}: {summary.n_onsets} onsets",
+              f"{'parameter':<22} {'mean ± sd':>22} {f'{hdi:.0%} interval':>24} "
+              f"{'R-hat':>7} {'ESS':>6}"]
     for name, p in parameters.items():
-        if p["sd"] is None or p["mean"] is None:
+        if p.sd is None or p.mean is None:
             continue
-        mean_sd = format_value_error(p["mean"], p["sd"])
+        mean_sd = format_value_error(p.mean, p.sd)
         decimals = mean_sd.split(" ± ")[0]
         places = len(decimals.split(".")[1]) if "." in decimals else 0
-        interval = f"[{p['hdi_low']:.{places}f}, {p['hdi_high']:.{places}f}]"
-        r_hat = "—" if p["r_hat"] is None else f"{p['r_hat']:.4f}"
-        ess = "—" if p["ess_bulk"] is None or math.isnan(p["ess_bulk"]) else \
-            f"{min(p['ess_bulk'], p['ess_tail'] or math.inf):.0f}"
+        interval = (f"[{p.hdi_low:.{places}f}, {p.hdi_high:.{places}f}]"
+                    if p.hdi_low is not None and p.hdi_high is not None else "—")
+        r_hat = "—" if p.r_hat is None else f"{p.r_hat:.4f}"
+        ess = "—" if p.ess_bulk is None else f"{min(p.ess_bulk, p.ess_tail or math.inf):.0f}"
         lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>7} {ess:>6}")
-    for d in summary["diagnostics"].values():
-        for warning in d["warnings"]:
-            lines.append(f"warning: {warning}")
+    lines += [f"warning: {warning}" for warning in summary.warnings]
     lines.append("")
-    preferred = summary["preferred"]
+    preferred = summary.preferred
     lines.append(f"preferred: {preferred if preferred else 'none (the data cannot tell)'}")
-    lines.append(f"verdict: {summary['verdict']}")
+    lines.append(f"verdict: {summary.verdict}")
     return "\n".join(lines)

@@ -22,6 +22,7 @@ import arviz as az
 import numpy as np
 
 from drumroll.inference.evidence import Evidence
+from drumroll.inference.results import ComparisonRow, LooSummary
 from drumroll.physics.models import MODELS
 
 LOO_MIN_DIFF = 4.0
@@ -44,6 +45,11 @@ class LooResult:
     pointwise: np.ndarray
     pareto_k: np.ndarray
     bounces: np.ndarray | None = None
+
+    def summary(self) -> LooSummary:
+        """The record ``summary.json`` keeps."""
+        return LooSummary(elpd_loo=self.elpd, elpd_loo_se=self.se,
+                          pareto_k_bad=tuple(self.bad_onsets))
 
     @property
     def bad_onsets(self) -> list[int]:
@@ -87,7 +93,7 @@ def decide(elpd_diff: float, elpd_diff_se: float, log_bf: float | None = None,
 def compare_models(idatas: dict[str, az.InferenceData], main: str,
                    evidences: dict[str, Evidence] | None = None,
                    loos: dict[str, LooResult] | None = None
-                   ) -> tuple[list[dict[str, float | str | list[int]]], str | None, str,
+                   ) -> tuple[tuple[ComparisonRow, ...], str | None, str,
                               dict[str, LooResult]]:
     """Compare ``main`` with every other fitted model (``loos``: each model's PSIS-LOO where
     already computed, see :func:`loo`).
@@ -95,15 +101,13 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
     Returns
     -------
     rows, preferred, verdict, loos
-        One row per other model (the ``summary.json`` contract: ``model``,
-        ``elpd_loo_diff``, ``elpd_loo_diff_se``, ``log_bayes_factor``,
-        ``log_bayes_factor_err``, plus ``elpd_loo``, ``elpd_loo_se``, ``pareto_k_bad``);
-        the preferred model (None when the data cannot tell); the verdict in plain words;
-        and each model's LOO.
+        One :class:`~drumroll.inference.results.ComparisonRow` per other model (main −
+        other); the preferred model (None when the data cannot tell); the verdict in plain
+        words; and each model's LOO.
     """
     evidences = evidences or {}
     loos = {name: (loos or {}).get(name) or loo(idata) for name, idata in idatas.items()}
-    rows: list[dict] = []
+    rows: list[ComparisonRow] = []
     sentences = []
     for name in idatas:
         if name == main:
@@ -111,39 +115,38 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
         diff_i = loos[main].pointwise - loos[name].pointwise
         diff = float(diff_i.sum())
         diff_se = float(math.sqrt(diff_i.size * np.var(diff_i)))
-        row = {"model": name, "elpd_loo_diff": diff, "elpd_loo_diff_se": diff_se,
-               "elpd_loo": loos[name].elpd, "elpd_loo_se": loos[name].se,
-               "pareto_k_bad": loos[name].bad_onsets}
         log_bf = log_bf_err = None
         if main in evidences and name in evidences:
             log_bf = evidences[main].log_z - evidences[name].log_z
             log_bf_err = math.hypot(evidences[main].log_z_err, evidences[name].log_z_err)
-            row.update(log_bayes_factor=log_bf, log_bayes_factor_err=log_bf_err)
-        rows.append(row)
+        rows.append(ComparisonRow(
+            model=name, elpd_loo_diff=diff, elpd_loo_diff_se=diff_se, elpd_loo=loos[name].elpd,
+            elpd_loo_se=loos[name].se, pareto_k_bad=tuple(loos[name].bad_onsets),
+            log_bayes_factor=log_bf, log_bayes_factor_err=log_bf_err))
         sentences.append(_sentence(main, name, decide(diff, diff_se, log_bf, log_bf_err),
                                    diff, diff_se, log_bf, log_bf_err))
     preferred = _preferred(main, rows)
     verdict = "; ".join(sentences) if sentences else "no other model was fitted"
-    return rows, preferred, verdict, loos
+    return tuple(rows), preferred, verdict, loos
 
 
-def _preferred(main: str, rows: list[dict]) -> str | None:
+def _preferred(main: str, rows: list[ComparisonRow]) -> str | None:
     """The model clearly better than every other one, or None."""
-    outcomes = {row["model"]: decide(row["elpd_loo_diff"], row["elpd_loo_diff_se"],
-                                     row.get("log_bayes_factor"),
-                                     row.get("log_bayes_factor_err")) for row in rows}
+    outcomes = {row.model: decide(row.elpd_loo_diff, row.elpd_loo_diff_se,
+                                  row.log_bayes_factor, row.log_bayes_factor_err)
+                for row in rows}
     if all(o == 1 for o in outcomes.values()):
         return main
     winners = [m for m, o in outcomes.items() if o == -1]
     if len(winners) == 1:
         # The winner must also beat the remaining models: compare through the main model.
         winner = winners[0]
-        w = next(r for r in rows if r["model"] == winner)
+        w = next(r for r in rows if r.model == winner)
         for row in rows:
-            if row["model"] == winner:
+            if row.model == winner:
                 continue
-            diff = row["elpd_loo_diff"] - w["elpd_loo_diff"]
-            se = math.hypot(row["elpd_loo_diff_se"], w["elpd_loo_diff_se"])
+            diff = row.elpd_loo_diff - w.elpd_loo_diff
+            se = math.hypot(row.elpd_loo_diff_se, w.elpd_loo_diff_se)
             if _sign(-diff, se, LOO_MIN_DIFF) != 1:
                 return None
         return winner

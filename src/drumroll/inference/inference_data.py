@@ -118,3 +118,28 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
         "acceptance": chain.acceptance, "n_steps": chain.n_steps, "burn": chain.burn,
         "thin": chain.thin, "converged": int(chain.converged)})
     return idata
+
+
+def observed_onsets(idata) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Observed onset times (s) and the extractor's per-onset sigmas (s, zeros if absent)."""
+    times = np.asarray(idata.observed_data["onset_time"].values, dtype=float)
+    sigmas = np.zeros_like(times)
+    if "constant_data" in idata.groups() and "onset_sigma_s" in idata.constant_data:
+        sigmas = np.nan_to_num(np.asarray(idata.constant_data["onset_sigma_s"].values, float))
+    return times, np.broadcast_to(sigmas, times.shape).astype(float)
+
+
+def observed_bounces(idata) -> NDArray[np.int64]:
+    """The bounce number k of each observed onset: the ``onset`` coordinate (0, 1, 2, … in
+    files written before bounce numbers were stored, and whenever no bounce is missing)."""
+    observed = idata.observed_data["onset_time"]
+    if "onset" in observed.coords:
+        return np.asarray(observed["onset"].values).astype(np.int64)
+    return np.arange(observed.shape[-1], dtype=np.int64)
+
+
+def jitter_s(idata) -> float:
+    """Posterior median of the onset jitter, in seconds (0 if the model has none)."""
+    if "jitter_ms" not in idata.posterior:
+        return 0.0
+    return float(np.nanmedian(idata.posterior["jitter_ms"].values)) * 1e-3

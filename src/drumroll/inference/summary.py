@@ -7,46 +7,41 @@ from typing import Any
 
 import arviz as az
 import numpy as np
+from numpy.typing import NDArray
 
 from drumroll.inference.comparison import LooResult
 from drumroll.inference.convergence import diagnose
+from drumroll.inference.inference_data import jitter_s, observed_bounces, observed_onsets
+from drumroll.inference.results import (
+    Diagnostics,
+    FlightSeries,
+    ObservedFlights,
+    ParameterSummary,
+    json_number,
+)
 from drumroll.inference.sampling import Chain
+from drumroll.onsets.table import single_flights
 
 
-def _number(value: Any) -> float | None:
-    """A JSON-safe float (None for NaN or infinity)."""
-    value = float(value)
-    return value if math.isfinite(value) else None
-
-
-def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9) -> dict[str, dict]:
-    """Mean, sd, median, HDI, R-hat and bulk/tail ESS of every posterior variable.
-
-    Returns
-    -------
-    dict
-        Variable → ``{"mean", "sd", "median", "hdi_low", "hdi_high", "hdi_prob", "r_hat",
-        "ess_bulk", "ess_tail"}`` (the ``summary.json`` contract; ESS treats the walkers as
-        chains, R-hat groups of walkers: :mod:`~drumroll.inference.convergence`, the same
-        numbers the sampler's stopping rule checked).
-    """
+def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9
+                      ) -> dict[str, ParameterSummary]:
+    """Mean, sd, median, HDI, R-hat and bulk/tail ESS of every posterior variable, by name
+    (ESS treats the walkers as chains, R-hat groups of walkers:
+    :mod:`~drumroll.inference.convergence`, the same numbers the sampler's stopping rule
+    checked)."""
     posterior = idata.posterior
     hdi = az.hdi(posterior, hdi_prob=hdi_prob)
     stats = diagnose({name: np.asarray(values) for name, values in posterior.data_vars.items()})
     out = {}
     for name, values in posterior.data_vars.items():
         draws = np.asarray(values)
-        out[name] = {
-            "mean": _number(draws.mean()),
-            "sd": _number(draws.std(ddof=1)),
-            "median": _number(np.median(draws)),
-            "hdi_low": _number(hdi[name].sel(hdi="lower")),
-            "hdi_high": _number(hdi[name].sel(hdi="higher")),
-            "hdi_prob": hdi_prob,
-            "r_hat": _number(stats[name]["r_hat"]),
-            "ess_bulk": _number(stats[name]["ess_bulk"]),
-            "ess_tail": _number(stats[name]["ess_tail"]),
-        }
+        out[str(name)] = ParameterSummary(
+            mean=json_number(draws.mean()), sd=json_number(draws.std(ddof=1)),
+            median=json_number(np.median(draws)),
+            hdi_low=json_number(hdi[name].sel(hdi="lower")),
+            hdi_high=json_number(hdi[name].sel(hdi="higher")), hdi_prob=hdi_prob,
+            r_hat=json_number(stats[name]["r_hat"]), ess_bulk=json_number(stats[name]["ess_bulk"]),
+            ess_tail=json_number(stats[name]["ess_tail"]))
     return out
 
 
@@ -72,7 +67,7 @@ def _at_prior_edge(idata: az.InferenceData, name: str) -> str | None:
 
 
 def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
-                settings: Any) -> dict[str, Any]:
+                settings: Any) -> Diagnostics:
     """Convergence figures of one fit and warnings that say what to do.
 
     Warnings are raised for: a chain stopped at ``max_steps`` before every reported quantity
@@ -113,20 +108,48 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
                         "influential (the first onset anchors every flight) or fit badly; "
                         "check them in residuals.png, and treat a small Δelpd with care")
     finite_tau = chain.tau[np.isfinite(chain.tau)]
-    return {
-        "converged": bool(chain.converged),
-        "n_steps": int(chain.n_steps),
-        "burn": int(chain.burn),
-        "thin": int(chain.thin),
-        "walkers": int(chain.samples.shape[0]),
-        "draws": int(chain.samples.shape[0] * chain.samples.shape[1]),
-        "tau_max": _number(finite_tau.max()) if finite_tau.size else None,
-        "acceptance": _number(chain.acceptance),
-        "r_hat_max": _number(max((stats[n]["r_hat"] for n in sampled), default=float("nan"))),
-        "ess_bulk_min": _number(min((stats[n]["ess_bulk"] for n in sampled),
-                                    default=float("nan"))),
-        "ess_tail_min": _number(min((stats[n]["ess_tail"] for n in sampled),
-                                    default=float("nan"))),
-        "checks": int(chain.checks),
-        "warnings": warnings,
-    }
+    return Diagnostics(
+        converged=bool(chain.converged), n_steps=int(chain.n_steps), burn=int(chain.burn),
+        thin=int(chain.thin), walkers=int(chain.samples.shape[0]),
+        draws=int(chain.samples.shape[0] * chain.samples.shape[1]),
+        tau_max=json_number(finite_tau.max()) if finite_tau.size else None,
+        acceptance=json_number(chain.acceptance),
+        r_hat_max=json_number(max((stats[n]["r_hat"] for n in sampled), default=math.nan)),
+        ess_bulk_min=json_number(min((stats[n]["ess_bulk"] for n in sampled),
+                                     default=math.nan)),
+        ess_tail_min=json_number(min((stats[n]["ess_tail"] for n in sampled),
+                                     default=math.nan)),
+        checks=int(chain.checks), target_ess=float(sampler.target_ess),
+        max_r_hat=float(sampler.max_r_hat), warnings=tuple(warnings))
+
+
+def central_band(draws: NDArray[np.float64], prob: float = 0.9
+         ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Lower edge, median and upper edge of the central ``prob`` interval along axis 0."""
+    lo, mid, hi = np.nanquantile(draws, [(1 - prob) / 2, 0.5, (1 + prob) / 2], axis=0)
+    return lo, mid, hi
+
+
+def flight_series(idata: az.InferenceData, prob: float = 0.9) -> FlightSeries:
+    """The posterior median and central ``prob`` band of a model's noise-free flight times
+    (``posterior_predictive.flight_time_model``)."""
+    draws = np.asarray(idata.posterior_predictive["flight_time_model"].values, float)
+    low, median, high = central_band(draws.reshape(-1, draws.shape[-1]), prob)
+    return FlightSeries(median=tuple(map(float, median)), low=tuple(map(float, low)),
+                        high=tuple(map(float, high)), prob=prob)
+
+
+def observed_flights(idata: az.InferenceData) -> ObservedFlights:
+    """The observed flight times and their 1σ errors (see
+    :class:`~drumroll.inference.results.ObservedFlights`), with the posterior median jitter
+    of ``idata``'s model."""
+    times, sigmas = observed_onsets(idata)
+    bounces = observed_bounces(idata)
+    var = jitter_s(idata) ** 2 + sigmas**2
+    ends = single_flights(bounces)
+    flights = np.full(int(bounces[-1]) if bounces.size else 0, np.nan)
+    errors = flights.copy()
+    flights[bounces[ends] - 1] = times[ends] - times[ends - 1]
+    errors[bounces[ends] - 1] = np.sqrt(var[ends - 1] + var[ends])
+    return ObservedFlights(time_s=tuple(json_number(v) for v in flights),
+                           err_s=tuple(json_number(v) for v in errors))

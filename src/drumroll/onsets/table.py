@@ -112,7 +112,7 @@ class OnsetTable:
         """Time since the previous onset of the same roll (NaN for each roll's first).
 
         Across a gap in the bounce numbers this spans several flights (see
-        :func:`drumroll.reporting.plot_style.single_flights`).
+        :func:`single_flights`).
         """
         if not len(self):
             return np.zeros(0)
@@ -418,3 +418,19 @@ def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
                                 f"{ln[:40]!r}")
         times.append(_number(path, n, ln, "time"))
     return _numbered(path, [n for n, _ in lines], times, {})
+
+
+def single_flights(bounces: ArrayLike, rolls: ArrayLike | None = None) -> NDArray[np.intp]:
+    """Indices i ≥ 1 of the onsets that end one whole flight.
+
+    Onset i ends flight k = ``bounces[i]`` (physics.md: flight k lies between impacts k − 1
+    and k) when onset i − 1 is bounce k − 1 (of the same roll, when ``rolls`` are given); then
+    t_i − t_{i−1} is T_k. Across a missing bounce the time between two onsets spans several
+    flights and is no flight: every figure and table of flight times leaves it out.
+    """
+    bounces = np.asarray(bounces, dtype=np.int64)
+    ends = np.diff(bounces) == 1
+    if rolls is not None:
+        rolls = np.asarray(rolls)
+        ends &= rolls[1:] == rolls[:-1]
+    return np.flatnonzero(ends) + 1

@@ -19,84 +19,54 @@ from pathlib import Path
 
 import numpy as np
 
+from drumroll.inference.results import ParameterSummary, Summary
 from drumroll.reporting.numbers import format_value_error
 from drumroll.reporting.plot_style import (
-    BAND,
     DATA_COLOR,
-    band,
-    flat_draws,
-    jitter_s,
     model_color,
     model_linestyle,
     model_name,
     new_figure,
-    observed_bounces,
-    observed_onsets,
     ordered_models,
     save_figure,
-    single_flights,
     style,
 )
 
 
-def observed_flights(idata) -> tuple[np.ndarray, np.ndarray]:
-    """Observed flight times T_1 … T_K (s) and their 1σ errors (s); entry k − 1 is flight k.
-
-    Flight k is observed when the onsets of bounces k − 1 and k both are; the flights next
-    to a missing bounce are NaN (the time across the gap spans two or more flights). The
-    error of one flight combines its two onsets, each with the posterior median jitter and
-    the extractor's own sigma in quadrature.
-    """
-    times, sigmas = observed_onsets(idata)
-    bounces = observed_bounces(idata)
-    var = jitter_s(idata) ** 2 + sigmas**2
-    ends = single_flights(bounces)
-    flights = np.full(int(bounces[-1]) if bounces.size else 0, np.nan)
-    errors = flights.copy()
-    flights[bounces[ends] - 1] = times[ends] - times[ends - 1]
-    errors[bounces[ends] - 1] = np.sqrt(var[ends - 1] + var[ends])
-    return flights, errors
-
-
-def _fit_text(idata) -> str:
-    """``α = 0.880 ± 0.001, t_B = 0.253 ± 0.001 s`` from the posterior, for the legend."""
+def _fit_text(parameters: dict[str, ParameterSummary]) -> str:
+    """``α = 0.880 ± 0.001, t_B = 0.253 ± 0.001 s`` from a model's summaries, for the legend."""
     parts = []
     for key, symbol, unit in (("alpha", "α", ""), ("t_b", "$t_B$", "s")):
-        if key in idata.posterior:
-            values = np.asarray(idata.posterior[key].values, float).ravel()
-            text = format_value_error(float(np.mean(values)), float(np.std(values)),
-                                      significant=1, unit=unit)
+        stats = parameters.get(key)
+        if stats is not None and stats.mean is not None and stats.sd is not None:
+            text = format_value_error(stats.mean, stats.sd, significant=1, unit=unit)
             parts.append(f"{symbol} = {text}")
     return ", ".join(parts)
 
 
-def draw_bounce_series(idatas: dict, main_model: str):
-    """Build the bounce-series figure (a :class:`matplotlib.figure.Figure`).
+def _array(values: tuple[float | None, ...]) -> np.ndarray:
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
 
-    Parameters
-    ----------
-    idatas
-        Model name → InferenceData with ``posterior_predictive.flight_time_model`` and
-        ``observed_data.onset_time``.
-    main_model
-        The model whose median is the reference of the lower panel (and whose jitter sets
-        the data's error bars).
-    """
+
+def draw_bounce_series(summary: Summary):
+    """Build the bounce-series figure (a :class:`matplotlib.figure.Figure`) of an estimate's
+    summary: every model's flights (median and band), the observed flights with their errors,
+    the main model's median as the lower panel's reference."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     from matplotlib.ticker import LogFormatterSciNotation, LogLocator, MaxNLocator, ScalarFormatter
 
-    models = ordered_models(idatas, main_model)
-    main = idatas[main_model]
-    t_obs, t_err = observed_flights(main)
+    main_model = summary.model
+    models = ordered_models(summary.models, main_model)
+    t_obs = _array(summary.observed_flights.time_s)
+    t_err = _array(summary.observed_flights.err_s)
 
     fig = new_figure((7.6, 6.6), layout="constrained")
     ax, ax_res = fig.subplots(2, 1, sharex=True, height_ratios=[2.4, 1.3])
 
-    curves = {}
-    for model in models:
-        flights = flat_draws(idatas[model], "posterior_predictive", "flight_time_model")
-        curves[model] = band(flights)
+    curves = {m: tuple(np.asarray(getattr(summary.models[m].flights, side), float)
+                       for side in ("low", "median", "high")) for m in models}
+    prob = summary.models[main_model].flights.prob
     n = min(t_obs.size, *(c[1].size for c in curves.values()))
     k = np.arange(1, n + 1)
     t_obs, t_err = t_obs[:n], t_err[:n]
@@ -119,7 +89,7 @@ def draw_bounce_series(idatas: dict, main_model: str):
         handles.append((Patch(facecolor=color, alpha=0.22, lw=0),
                         Line2D([], [], color=color, lw=1.6,
                                ls=model_linestyle(model))))
-        fit = _fit_text(idatas[model])
+        fit = _fit_text(summary.models[model].parameters)
         labels.append(f"{model_name(model)}" + (f": {fit}" if fit else ""))
 
     kw = dict(fmt="o", ms=3.8, color=DATA_COLOR, mfc="white", mew=1.1, elinewidth=1.0,
@@ -131,7 +101,7 @@ def draw_bounce_series(idatas: dict, main_model: str):
 
     ax.set_yscale("log")
     ax.set_ylabel("flight time $T_k$ (s)")
-    ax.set_title(f"Bounce series: model medians and {BAND:.0%} posterior bands")
+    ax.set_title(f"Bounce series: model medians and {prob:.0%} posterior bands")
     ax.legend(handles, labels, loc="lower left", handlelength=2.6)
     ax.grid(True, which="major", color="0.9", lw=0.6)
     ax.grid(True, which="minor", axis="y", color="0.95", lw=0.4)
@@ -156,9 +126,9 @@ def draw_bounce_series(idatas: dict, main_model: str):
     return fig
 
 
-def plot_bounce_series(idatas: dict, main_model: str, path: str | os.PathLike[str], *,
+def plot_bounce_series(summary: Summary, path: str | os.PathLike[str], *,
                        overwrite: bool = False) -> Path:
     """Write ``bounce_series.png`` (see :func:`draw_bounce_series`) to ``path`` atomically."""
     with style():
-        fig = draw_bounce_series(idatas, main_model)
+        fig = draw_bounce_series(summary)
     return save_figure(fig, path, overwrite=overwrite)

@@ -1,25 +1,27 @@
 """The model comparison at a glance: PSIS-LOO elpd and, when available, log Bayes factors.
 
 Left panel (after ``arviz.plot_compare``): each model's expected log predictive density
-(elpd_loo, higher is better) with its standard error, and for the other models a grey bar
-with the standard error of their difference from the main model (the one that matters: the
-models are judged on the same onsets, so their errors are correlated). Right panel, if
-given: the log Bayes factor ln B = ln Z(model) − ln Z(main) with its error, the band
-|ln B| < 1 (not worth more than a bare mention, Kass & Raftery 1995) shaded.
+(elpd_loo, higher is better) with its standard error, and for the other models a grey
+triangle with the standard error of their difference from the main model (the one that
+matters: the models are judged on the same onsets, so their errors are correlated). Right
+panel, if there are evidences: the log Bayes factor of the main model over each other, with
+its error, the band |ln B| < 1 (not worth more than a bare mention, Kass & Raftery 1995)
+shaded.
 
-Sign conventions (independent of how the caller signs ``elpd_loo_diff``): the plot shows
-differences as *model − main*, so negative means "worse than the main model".
+Signs are the summary's (:class:`~drumroll.inference.results.ComparisonRow`): every
+difference is *main model − other model*, so positive favours the main model.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from drumroll.inference.results import ComparisonRow, LooSummary
 from drumroll.reporting.numbers import format_value_error
 from drumroll.reporting.plot_style import (
     model_color,
@@ -31,13 +33,9 @@ from drumroll.reporting.plot_style import (
 )
 
 
-def _number(row: dict[str, Any], key: str) -> float:
-    """``row[key]`` as a float, NaN when missing or None."""
-    value = row.get(key)
-    try:
-        return float(value) if value is not None else math.nan
-    except (TypeError, ValueError):
-        return math.nan
+def _number(value: float | None) -> float:
+    """A float, NaN for None."""
+    return math.nan if value is None else float(value)
 
 
 def _text(value: float, err: float) -> str:
@@ -46,30 +44,30 @@ def _text(value: float, err: float) -> str:
     return text.replace("-", "−")
 
 
-def draw_comparison(comparison: list[dict[str, Any]], main_model: str):
+def draw_comparison(rows: Sequence[ComparisonRow], loo: Mapping[str, LooSummary],
+                    main_model: str):
     """Build the comparison figure (a :class:`matplotlib.figure.Figure`).
 
     Parameters
     ----------
-    comparison
-        One dict per model with ``model``, ``elpd_loo``, ``elpd_loo_se``, and optionally
-        ``elpd_loo_diff_se``, ``log_bayes_factor`` (ln Z(model) − ln Z(main)) and
-        ``log_bayes_factor_err``. The main model is included.
+    rows
+        The main model against each other one (main − other).
+    loo
+        Every model's PSIS-LOO (elpd and its standard error), the main model's included.
     main_model
         The reference model (drawn on top, dashed line at its elpd).
     """
-    rows = {str(r["model"]): r for r in comparison}
-    if not rows:
-        raise ValueError("nothing to compare: the comparison list is empty")
-    models = ordered_models(rows, main_model)
-    elpd = {m: _number(rows[m], "elpd_loo") for m in models}
-    se = {m: _number(rows[m], "elpd_loo_se") for m in models}
-    dse = {m: _number(rows[m], "elpd_loo_diff_se") for m in models}
-    lnb = {m: _number(rows[m], "log_bayes_factor") for m in models}
-    lnb_err = {m: _number(rows[m], "log_bayes_factor_err") for m in models}
-    if main_model in lnb and not math.isfinite(lnb[main_model]):
-        lnb[main_model] = 0.0
-    has_bayes = any(math.isfinite(lnb[m]) for m in models if m != main_model)
+    others = {row.model: row for row in rows}
+    if not others:
+        raise ValueError("nothing to compare: no other model was fitted")
+    models = ordered_models([main_model, *others], main_model)
+    elpd = {m: _number(loo[m].elpd_loo) if m in loo else math.nan for m in models}
+    se = {m: _number(loo[m].elpd_loo_se) if m in loo else math.nan for m in models}
+    diff = {m: _number(r.elpd_loo_diff) for m, r in others.items()}
+    dse = {m: _number(r.elpd_loo_diff_se) for m, r in others.items()}
+    lnb = {m: _number(r.log_bayes_factor) for m, r in others.items()}
+    lnb_err = {m: _number(r.log_bayes_factor_err) for m, r in others.items()}
+    has_bayes = any(math.isfinite(v) for v in lnb.values())
     has_elpd = any(math.isfinite(v) for v in elpd.values())
 
     n_panels = int(has_elpd) + int(has_bayes)
@@ -94,11 +92,11 @@ def draw_comparison(comparison: list[dict[str, Any]], main_model: str):
             ax.errorbar(elpd[m], y[m], xerr=se[m] if math.isfinite(se[m]) else None, fmt="o",
                         ms=7, color=color, elinewidth=1.6, capsize=3, zorder=3)
             label = _text(elpd[m], se[m])
-            if m != main_model and math.isfinite(main_elpd):
-                label += f"   Δ = {_text(elpd[m] - main_elpd, dse[m])}"
+            if m != main_model and math.isfinite(diff[m]):
+                label += f"   main − this = {_text(diff[m], dse[m])}"
             ax.annotate(label, (elpd[m], y[m]), xytext=(0, 9), textcoords="offset points",
                         ha="center", va="bottom", fontsize=8.5)
-        ax.set_xlabel("elpd_loo (log predictive density, higher is better)")
+        ax.set_xlabel("elpd_loo\n(log predictive density, higher is better)")
         title = "PSIS-LOO: ● elpd ± SE"
         if any(math.isfinite(dse[m]) and dse[m] > 0 for m in models if m != main_model):
             title += f",  ▲ ± SE of the difference from {model_name(main_model)}"
@@ -110,6 +108,7 @@ def draw_comparison(comparison: list[dict[str, Any]], main_model: str):
         ax = axes.pop(0)
         ax.axvspan(-1, 1, color="0.92", lw=0, zorder=0)
         ax.axvline(0.0, color="0.5", lw=0.8, ls="--", zorder=1)
+        lnb[main_model], lnb_err[main_model] = 0.0, math.nan
         for i, m in enumerate(models):
             if not math.isfinite(lnb[m]):
                 continue
@@ -120,7 +119,8 @@ def draw_comparison(comparison: list[dict[str, Any]], main_model: str):
                 ax.annotate(_text(lnb[m], lnb_err[m]), (lnb[m], y[m]), xytext=(0, 9),
                             textcoords="offset points", ha="center", va="bottom",
                             fontsize=8.5)
-        ax.set_xlabel(f"ln B = ln Z(model) − ln Z({model_name(main_model)})")
+        ax.set_xlabel(f"ln B = ln Z({model_name(main_model)}) − ln Z(model)\n"
+                      "(positive favours the main model)")
         ax.set_title("Bayes factor (grey: |ln B| < 1, inconclusive)", fontsize=9.5)
         finite = [v for v in lnb.values() if math.isfinite(v)]
         errs = [lnb_err[m] if math.isfinite(lnb_err[m]) else 0 for m in models
@@ -151,9 +151,10 @@ def _pad_x(ax, lows: list[float], highs: list[float], fraction: float = 0.2) -> 
     ax.set_xlim(lo - fraction * width, hi + fraction * width)
 
 
-def plot_comparison(comparison: list[dict[str, Any]], main_model: str,
-                    path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+def plot_comparison(rows: Sequence[ComparisonRow], loo: Mapping[str, LooSummary],
+                    main_model: str, path: str | os.PathLike[str], *,
+                    overwrite: bool = False) -> Path:
     """Write ``comparison.png`` (see :func:`draw_comparison`) to ``path`` atomically."""
     with style():
-        fig = draw_comparison(comparison, main_model)
+        fig = draw_comparison(rows, loo, main_model)
     return save_figure(fig, path, overwrite=overwrite)

@@ -15,10 +15,10 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from drumroll.inference.results import Summary
 from drumroll.reporting.plot_style import (
     BAND,
     OKABE_ITO,
@@ -34,17 +34,17 @@ RUN_COLORS = tuple(OKABE_ITO[c] for c in ("blue", "vermillion", "green", "orange
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X")
 
 
-def draw_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, dict[str, Any]]]]],
+def draw_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, Summary]]]],
                  title: str | None = None):
     """Build the figure.
 
     Parameters
     ----------
     panels
-        ``(panel title or None, [(run label, row data), …])`` per panel; a row's
-        ``flights`` holds ``observed``, ``observed_err``, ``lo``, ``median``, ``hi`` (s),
-        entry k − 1 for flight k (``None`` or NaN where a flight was not observed: the
-        flights next to a missing bounce).
+        ``(panel title or None, [(run label, summary), …])`` per panel: each run's
+        :class:`~drumroll.inference.results.Summary` gives its observed flights (None where a
+        flight was not observed: the flights next to a missing bounce), the main model's
+        flights (median and band) and its α.
     title
         Figure title (optional).
     """
@@ -57,23 +57,26 @@ def draw_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, dict[str
     for ax, (panel_title, runs) in zip(axes, panels, strict=True):
         for j, (label, row) in enumerate(runs):
             color, marker = RUN_COLORS[j % len(RUN_COLORS)], _MARKERS[j % len(_MARKERS)]
-            f = row["flights"]
-            observed = np.asarray(f["observed"], float)  # None (a missing flight) → NaN
-            err = np.asarray(f["observed_err"], float)
-            lo, mid, hi = (np.asarray(f[k], float) for k in ("lo", "median", "hi"))
+            flights = row.models[row.model].flights
+            observed = np.array([np.nan if v is None else v
+                                 for v in row.observed_flights.time_s], float)
+            err = np.array([np.nan if v is None else v for v in row.observed_flights.err_s],
+                           float)
+            lo, mid, hi = (np.asarray(getattr(flights, k), float)
+                           for k in ("low", "median", "high"))
             count = min(observed.size, mid.size)
             k = np.arange(1, count + 1)
             ax.fill_between(k, lo[:count], hi[:count], color=color, alpha=0.2, lw=0, zorder=1)
             ax.plot(k, mid[:count], color=color, lw=1.4, zorder=2)
-            alpha = row.get("alpha") or {}
+            alpha = row.parameters.get("alpha")
             text = label
-            if alpha.get("value") is not None:
+            if alpha is not None and alpha.mean is not None and alpha.sd is not None:
                 from drumroll.reporting.numbers import format_value_error
 
-                text += f" (α = {format_value_error(alpha['value'], alpha['err'])})"
+                text += f" (α = {format_value_error(alpha.mean, alpha.sd)})"
             ax.errorbar(k, observed[:count], yerr=err[:count], fmt=marker, ms=4, color=color,
                         mfc="white", mew=1.1, elinewidth=0.9, capsize=0, zorder=3, label=text)
-            models.add(row.get("model", "pendulum"))
+            models.add(row.model)
         ax.set_yscale("log")
         ax.set_xlabel("bounce number $k$")
         if panel_title:
@@ -94,7 +97,7 @@ def draw_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, dict[str
     return fig
 
 
-def plot_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, dict[str, Any]]]]],
+def plot_figure5(panels: Sequence[tuple[str | None, Sequence[tuple[str, Summary]]]],
                  path: str | os.PathLike[str], *, title: str | None = None,
                  overwrite: bool = False) -> Path:
     """Write Figure 5 (see :func:`draw_figure5`) to ``path`` as a PNG, atomically."""

@@ -1,42 +1,173 @@
-"""All figures of ``drumroll estimate`` in one call.
+"""The figures of ``drumroll estimate``, registered once each: file, caption, drawing.
 
-:func:`write_figures` writes, into one folder,
+Every figure is a :class:`Figure` in :data:`FIGURES`, in the order the report shows them:
 
+* ``onsets.png``: the recording with every onset (after the paper's Figure 4), when the
+  source is audio;
 * ``bounce_series.png``: flight time against bounce number with every model's posterior
   median and 90 % band, and the differences from the main model (after the paper's Fig. 5);
-* ``corner.png``: the main model's posterior (corner.py), true values overlaid if known;
-* ``trace.png``: the main model's walkers and marginals, with R-hat and ESS;
 * ``residuals.png``: the posterior predictive check of onset times, one panel per model;
-* ``comparison.png``: PSIS-LOO elpd per model and, when given, log Bayes factors.
+* ``comparison.png``: PSIS-LOO elpd per model and the log Bayes factors, when there is
+  another model;
+* ``corner.png``: the main model's posterior (corner.py), true values overlaid if known;
+* ``trace.png``: the main model's walkers and marginals, with R-hat and ESS.
 
-The onset figure is made by :mod:`drumroll.reporting.onset_plot`. Each file is written
-atomically; existing files are refused (all of them checked before anything is drawn) unless
-``overwrite`` is set.
+A figure draws what it is given (:class:`FigureInputs`: the fits and the summary) and
+computes no statistic of its own. Each file is written atomically. Adding a figure is one
+module with its ``draw``/``plot`` functions and one :class:`Figure` line here.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
+from drumroll.inference.results import Summary
 from drumroll.reporting.bounce_series import plot_bounce_series
 from drumroll.reporting.comparison_plot import plot_comparison
 from drumroll.reporting.corner_plot import plot_corner
+from drumroll.reporting.onset_plot import write_onset_plot
 from drumroll.reporting.residuals import plot_residuals
 from drumroll.reporting.trace_plot import plot_trace
 
-#: Figure key → file name (the keys are those of the dict :func:`write_figures` returns).
-FIGURE_FILES: dict[str, str] = {
-    "bounce_series": "bounce_series.png",
-    "corner": "corner.png",
-    "trace": "trace.png",
-    "residuals": "residuals.png",
-    "comparison": "comparison.png",
-}
+
+@dataclass(frozen=True)
+class FigureInputs:
+    """What the figures are given (picklable: they are drawn in worker processes).
+
+    Attributes
+    ----------
+    idatas
+        Model name → InferenceData (draws thinned as stored), main model first.
+    summary
+        The estimate's summary: the main model, its parameter summaries (R-hat and ESS of
+        every draw), the comparison rows, each model's PSIS-LOO, the sampler targets.
+    truths
+        Known values by quantity key (simulations), for the corner plot.
+    audio
+        The recording the onsets came from (None: they came from a file).
+    onsets
+        The onset table of the recording (every roll), for the onset figure.
+    """
+
+    idatas: dict[str, Any]
+    summary: Summary
+    truths: dict[str, float] | None = None
+    audio: str | os.PathLike[str] | None = None
+    onsets: Any = None
+
+    @property
+    def main(self) -> str:
+        """The main model."""
+        return self.summary.model
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One figure: its file, its caption and what to look for in it (the report's), when it
+    applies, and the function that draws it (module level, so a process pool can call it)."""
+
+    key: str
+    file: str
+    caption: str
+    note: str
+    draw: Callable[[FigureInputs, Path, bool], Path]
+    applies: Callable[[FigureInputs], bool] = lambda inputs: True
+
+
+def _onsets(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
+    return write_onset_plot(path, inputs.audio, inputs.onsets, overwrite=overwrite)
+
+
+def _bounce_series(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
+    return plot_bounce_series(inputs.summary, path, overwrite=overwrite)
+
+
+def _residuals(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
+    return plot_residuals(inputs.idatas, path, inputs.main, overwrite=overwrite)
+
+
+def _comparison(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
+    return plot_comparison(inputs.summary.comparison, inputs.summary.loo, inputs.main, path,
+                           overwrite=overwrite)
+
+
+def _corner(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
+    return plot_corner(inputs.idatas[inputs.main], path, inputs.truths, overwrite=overwrite)
+
+
+def _trace(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
+    diagnostics = inputs.summary.diagnostics.get(inputs.main)
+    return plot_trace(inputs.idatas[inputs.main], inputs.summary.parameters, path,
+                      max_r_hat=diagnostics.max_r_hat if diagnostics else 1.01,
+                      overwrite=overwrite)
+
+
+#: Every figure, by key, in the report's order.
+FIGURES: dict[str, Figure] = {f.key: f for f in (
+    Figure("onsets", "onsets.png", "Detected onsets",
+           "The recording with every detected impact; check that none is missing or "
+           "spurious.", _onsets, lambda inputs: inputs.audio is not None),
+    Figure("bounce_series", "bounce_series.png", "Bounce series",
+           "Flight time against bounce number with each model's posterior median and 90 % "
+           "band; the lower panel shows the differences from the main model, where exact and "
+           "small-angle pendulum part.", _bounce_series),
+    Figure("residuals", "residuals.png", "Onset residuals",
+           "Observed minus predicted onset times with the 90 % posterior predictive band. "
+           "Random scatter: the model is adequate. A smooth pattern: the model, not the "
+           "microphone, is the limit.", _residuals),
+    Figure("comparison", "comparison.png", "Model comparison",
+           "PSIS-LOO expected log predictive density per model (higher is better) and the log "
+           "Bayes factors of the main model over the others.", _comparison,
+           lambda inputs: bool(inputs.summary.comparison)),
+    Figure("corner", "corner.png", "Posterior",
+           "One- and two-dimensional marginals of the main model's parameters; tilted "
+           "ellipses are correlations (the pivot-height-release-speed ridge).", _corner),
+    Figure("trace", "trace.png", "Sampler trace",
+           "Walkers after burn-in; they should look like stationary noise around a common "
+           "level.", _trace),
+)}
+#: Roughly how long each figure takes to draw (s, the README's roll): the slowest are drawn
+#: first, so that parallel workers finish together.
+DRAW_SECONDS = {"corner": 1.3, "trace": 0.8, "residuals": 0.4, "onsets": 0.35,
+                "bounce_series": 0.25, "comparison": 0.15}
+
+
+def figure_files(inputs: FigureInputs) -> dict[str, str]:
+    """Key → file name of every figure that applies to ``inputs``."""
+    return {key: f.file for key, f in FIGURES.items() if f.applies(inputs)}
+
+
+def write_figures(inputs: FigureInputs, out_dir: str | os.PathLike[str],
+                  overwrite: bool = False) -> dict[str, Path]:
+    """Draw every figure that applies into ``out_dir``, in this process.
+
+    Returns
+    -------
+    dict
+        Figure key → path written.
+
+    Raises
+    ------
+    drumroll.errors.DrumrollError
+        If the main model is not among the fits, ``out_dir`` is not a folder, or a figure
+        file exists and ``overwrite`` is false (checked before anything is drawn).
+    """
+    if inputs.main not in inputs.idatas:
+        raise DrumrollError(f"main model {inputs.main!r} was not fitted "
+                            f"(fitted: {', '.join(inputs.idatas) or 'none'})")
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        raise DrumrollError(f"{out_dir}: no such directory")
+    paths = {key: out_dir / name for key, name in figure_files(inputs).items()}
+    for path in paths.values():
+        fileio.check_writable(path, overwrite=overwrite)
+    return {key: FIGURES[key].draw(inputs, path, overwrite) for key, path in paths.items()}
 
 
 def load_figure_libraries() -> None:
@@ -45,119 +176,4 @@ def load_figure_libraries() -> None:
     rather than each importing it again (about a second each)."""
     import corner  # noqa: F401  (it imports ArviZ)
     from matplotlib.backends import backend_agg  # noqa: F401
-    from matplotlib.figure import Figure  # noqa: F401
-
-
-def loo_comparison(idatas: dict[str, Any], main_model: str,
-                   summary_rows: list[dict[str, Any]] | None = None,
-                   loos: dict[str, Any] | None = None) -> list[dict[str, Any]]:
-    """Rows for the comparison figure: every model's elpd and its difference from the main one.
-
-    The figure shows differences as *model − main*; ``summary.json`` (and
-    :func:`drumroll.inference.comparison.compare_models`) signs them *main − model*. This
-    turns the latter into the former. PSIS-LOO is computed here only when ``loos`` (model →
-    :class:`~drumroll.inference.comparison.LooResult`, as ``estimate`` already has them) and
-    the summary rows are not both given.
-    """
-    from drumroll.inference.comparison import compare_models
-
-    if loos is None or summary_rows is None:
-        rows, _, _, loos = compare_models(idatas, main_model)
-    else:
-        rows = summary_rows
-    given = {str(r["model"]): r for r in (summary_rows or rows)}
-    out: list[dict[str, Any]] = [{"model": main_model, "elpd_loo": loos[main_model].elpd,
-                                  "elpd_loo_se": loos[main_model].se, "elpd_loo_diff": 0.0,
-                                  "elpd_loo_diff_se": 0.0, "log_bayes_factor": 0.0,
-                                  "log_bayes_factor_err": 0.0}]
-    for row in rows:
-        model = str(row["model"])
-        source = given.get(model, row)
-        plot_row = {"model": model, "elpd_loo": loos[model].elpd, "elpd_loo_se": loos[model].se,
-                    "elpd_loo_diff": -float(source["elpd_loo_diff"]),
-                    "elpd_loo_diff_se": float(source["elpd_loo_diff_se"])}
-        if source.get("log_bayes_factor") is not None:
-            plot_row["log_bayes_factor"] = -float(source["log_bayes_factor"])
-            plot_row["log_bayes_factor_err"] = float(source["log_bayes_factor_err"])
-        out.append(plot_row)
-    return out
-
-
-def write_figures(idatas: dict[str, Any], main_model: str, out_dir: str | os.PathLike[str],
-                  comparison: list[dict[str, Any]] | None = None,
-                  truths: dict[str, float] | None = None, overwrite: bool = False,
-                  loos: dict[str, Any] | None = None) -> dict[str, Path]:
-    """Write the five figures of an estimate into ``out_dir``.
-
-    Parameters
-    ----------
-    idatas
-        Model name → :class:`arviz.InferenceData` (as built by
-        :func:`drumroll.inference.inference_data.build_inference_data`).
-    main_model
-        The model of the corner and trace plots and the reference of the comparisons.
-    out_dir
-        Existing folder to write into.
-    comparison
-        The summary's comparison rows (``model``, ``elpd_loo_diff``, ``elpd_loo_diff_se``,
-        ``log_bayes_factor``, ``log_bayes_factor_err``; signed *main − model*), or None to
-        compute PSIS-LOO here.
-    truths
-        Known parameter values (simulations), by posterior name, for the corner plot.
-    overwrite
-        Replace existing files (the command line's ``--force``).
-    loos
-        The PSIS-LOO of each model when already computed (``Result.loos``).
-
-    Returns
-    -------
-    dict
-        Figure key (see :data:`FIGURE_FILES`) → path written.
-
-    Raises
-    ------
-    drumroll.errors.DrumrollError
-        If ``main_model`` is not among ``idatas``, ``out_dir`` is not a folder, or a figure
-        file exists and ``overwrite`` is false (checked before anything is written).
-    """
-    if main_model not in idatas:
-        raise DrumrollError(f"main model {main_model!r} was not fitted "
-                            f"(fitted: {', '.join(idatas) or 'none'})")
-    out_dir = Path(out_dir)
-    if not out_dir.is_dir():
-        raise DrumrollError(f"{out_dir}: no such directory")
-    paths = {key: out_dir / name for key, name in FIGURE_FILES.items()}
-    for path in paths.values():
-        fileio.check_writable(path, overwrite=overwrite)
-
-    return {key: function(*args, **kwargs) for key, (function, args, kwargs)
-            in figure_jobs(idatas, main_model, paths, comparison, truths, overwrite,
-                           loos).items()}
-
-
-#: One figure to draw: a module-level plotting function and its arguments (picklable, so a
-#: process pool can draw figures side by side).
-FigureJob = tuple[Callable[..., Path], tuple, dict[str, Any]]
-
-
-def figure_jobs(idatas: dict[str, Any], main_model: str, paths: dict[str, Path],
-                comparison: list[dict[str, Any]] | None = None,
-                truths: dict[str, float] | None = None, overwrite: bool = False,
-                loos: dict[str, Any] | None = None) -> dict[str, FigureJob]:
-    """The figures of :func:`write_figures` as jobs, slowest first; ``paths`` maps each key of
-    :data:`FIGURE_FILES` to its file. Nothing is drawn yet: call ``function(*args,
-    **kwargs)``, here or in another process."""
-    main = idatas[main_model]
-    rows = loo_comparison(idatas, main_model, comparison, loos)
-    jobs: dict[str, FigureJob] = {
-        "corner": (plot_corner, (main, paths["corner"], truths), {"overwrite": overwrite}),
-        "trace": (plot_trace, (main, paths["trace"]), {"overwrite": overwrite}),
-        "bounce_series": (plot_bounce_series, (idatas, main_model, paths["bounce_series"]),
-                          {"overwrite": overwrite}),
-        "residuals": (plot_residuals, (idatas, paths["residuals"], main_model),
-                      {"overwrite": overwrite}),
-    }
-    if rows:
-        jobs["comparison"] = (plot_comparison, (rows, main_model, paths["comparison"]),
-                              {"overwrite": overwrite})
-    return jobs
+    from matplotlib.figure import Figure as _Figure  # noqa: F401

@@ -4,7 +4,7 @@ Three panels: the whole recording with every onset marked; a zoom on the fastest
 (longest) roll at full resolution, where mistakes would show; and the flight times against
 bounce number on a log scale, where a drumroll is close to a straight line (one line per
 roll; no flight is drawn next to a bounce that was not heard, see
-:func:`~drumroll.reporting.plot_style.single_flights`).
+:func:`~drumroll.onsets.table.single_flights`).
 """
 
 from __future__ import annotations
@@ -16,8 +16,7 @@ import numpy as np
 
 from drumroll import fileio
 from drumroll.audio.io import iter_blocks, probe, read_excerpt
-from drumroll.onsets.table import OnsetTable
-from drumroll.reporting.plot_style import single_flights
+from drumroll.onsets.table import OnsetTable, single_flights
 
 #: Points in the overview's min/max envelope (memory stays small for an hour-long file).
 _OVERVIEW_BINS = 4000

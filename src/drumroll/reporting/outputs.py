@@ -1,7 +1,10 @@
-"""Writing an estimate to disk: ``summary.json``, ``posterior.nc``, ``report.md`` and figures.
+"""Writing an estimate to disk: its registered files, atomically, figures drawn side by side.
 
-Everything is first written into a hidden staging folder inside the output folder and then
-renamed into place file by file, so an interrupted run (Ctrl-C included) leaves no
+An estimate's outputs are the data files of :data:`DATA_FILES` (``summary.json``,
+``posterior.nc``, ``report.md``) and the figures of
+:data:`~drumroll.reporting.figures.FIGURES`, each registered once with its file name and
+writer. Everything is first written into a hidden staging folder inside the output folder and
+then renamed into place file by file, so an interrupted run (Ctrl-C included) leaves no
 half-written file, and existing files are replaced only with ``overwrite``.
 
 ``posterior.nc`` is written and read by :mod:`drumroll.reporting.posterior_file`
@@ -12,34 +15,63 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import os
 import shutil
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
-from drumroll.reporting.figures import FIGURE_FILES, figure_jobs
-from drumroll.reporting.onset_plot import write_onset_plot
+from drumroll.reporting.figures import DRAW_SECONDS, FIGURES, FigureInputs, figure_files
 from drumroll.reporting.posterior_file import load_posteriors, save_posteriors
 from drumroll.reporting.report import write_report
 from drumroll.workers import process_pool
 
-#: Files an estimate writes, besides the figures.
-__all__ = ["DATA_FILES", "check_outputs", "load_posteriors", "output_files",
+__all__ = ["DATA_FILES", "DataFile", "check_outputs", "load_posteriors", "output_files",
            "save_posteriors", "write_outputs"]
 
-DATA_FILES = ("summary.json", "posterior.nc", "report.md")
-ONSETS_FIGURE = "onsets.png"
+
+@dataclass(frozen=True)
+class DataFile:
+    """One data file of an estimate: its name and its writer, called with the result, the
+    path to write and the figures written (the report links them)."""
+
+    key: str
+    file: str
+    write: Callable[[Any, Path, dict[str, Path]], Any]
+
+
+def _summary(result: Any, path: Path, figures: dict[str, Path]) -> Path:
+    text = json.dumps(result.summary.to_json(), indent=2, ensure_ascii=False) + "\n"
+    return fileio.write_text(path, text, overwrite=True)
+
+
+def _posterior(result: Any, path: Path, figures: dict[str, Path]) -> None:
+    save_posteriors(result.idatas, result.model, path)
+
+
+def _report(result: Any, path: Path, figures: dict[str, Path]) -> Path:
+    return write_report(path, result.summary, figures, overwrite=True)
+
+
+#: The data files, by key, in the order they are written (the report last: it links the
+#: figures).
+DATA_FILES: dict[str, DataFile] = {d.key: d for d in (
+    DataFile("summary", "summary.json", _summary),
+    DataFile("posterior", "posterior.nc", _posterior),
+    DataFile("report", "report.md", _report),
+)}
 
 
 def output_files(include_onsets_figure: bool = True) -> list[str]:
-    """Names of every file :func:`write_outputs` writes."""
-    names = [*DATA_FILES, *FIGURE_FILES.values()]
-    return [*names, ONSETS_FIGURE] if include_onsets_figure else names
+    """Names of every file :func:`write_outputs` may write (known before the estimate runs,
+    so that existing files are refused before any work)."""
+    return [*(d.file for d in DATA_FILES.values()),
+            *(f.file for key, f in FIGURES.items()
+              if include_onsets_figure or key != "onsets")]
 
 
 def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
@@ -58,15 +90,12 @@ def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
     return out_dir
 
 
-def _json_safe(value: Any) -> Any:
-    """Replace NaN and infinities by None so the file is valid JSON."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    return value
+def figure_inputs(result: Any, truths: dict[str, float] | None = None) -> FigureInputs:
+    """What the figures of ``result`` (a :class:`drumroll.pipeline.Result`) are given."""
+    audio = result.source if result.source is not None and result.source.suffix.lower() \
+        not in fileio.ONSET_FILE_SUFFIXES else None
+    return FigureInputs(idatas=result.idatas, summary=result.summary, truths=truths,
+                        audio=audio, onsets=result.onsets if audio is not None else None)
 
 
 def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bool = False,
@@ -75,51 +104,45 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
     """Write every output of ``result`` (a :class:`drumroll.pipeline.Result`) into ``out_dir``.
 
     The figures are drawn by ``workers`` processes (default: one per core) while this one
-    writes ``posterior.nc`` and ``summary.json``.
+    writes ``summary.json`` and ``posterior.nc``.
 
     Returns
     -------
     dict
-        Output name → final path.
+        Output key (:data:`DATA_FILES`, :data:`~drumroll.reporting.figures.FIGURES`) → final
+        path.
     """
-    audio = result.source if result.source is not None and result.source.suffix.lower() \
-        not in fileio.ONSET_FILE_SUFFIXES else None
-    names = output_files(include_onsets_figure=audio is not None)
+    inputs = figure_inputs(result, truths)
+    figures = figure_files(inputs)
+    names = [*(d.file for d in DATA_FILES.values()), *figures.values()]
     out_dir = check_outputs(out_dir, names, overwrite=overwrite)
     created = not out_dir.exists()
     out_dir.mkdir(exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
     finished = False
     try:
-        jobs = figure_jobs(result.idatas, result.model,
-                           {key: staging / name for key, name in FIGURE_FILES.items()},
-                           comparison=result.summary["comparison"], truths=truths,
-                           overwrite=True, loos=result.loos)
-        if audio is not None:
-            jobs["onsets"] = (write_onset_plot, (staging / ONSETS_FIGURE, audio, result.onsets),
-                              {"overwrite": True})
-        workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
+        order = sorted(figures, key=lambda key: -DRAW_SECONDS.get(key, 1.0))  # slowest first
+        workers = max(1, min(workers or os.cpu_count() or 1, len(order)))
+        drawn: dict[str, Path] = {}
         with contextlib.ExitStack() as stack:
-            pool = (stack.enter_context(process_pool(workers))
-                    if workers > 1 else None)
-            futures = {key: pool.submit(function, *args, **kwargs) for key, (function, args,
-                       kwargs) in jobs.items()} if pool is not None else {}
-            summary = _json_safe(result.summary)
-            fileio.write_text(staging / "summary.json", json.dumps(summary, indent=2) + "\n",
-                              overwrite=True)
-            save_posteriors(result.idatas, result.model, staging / "posterior.nc")
-            figures = ({key: future.result() for key, future in futures.items()}
-                       if pool is not None else
-                       {key: function(*args, **kwargs)
-                        for key, (function, args, kwargs) in jobs.items()})
-        write_report(staging / "report.md", summary, figures, overwrite=True)
+            pool = stack.enter_context(process_pool(workers)) if workers > 1 else None
+            futures = {key: pool.submit(FIGURES[key].draw, inputs, staging / figures[key], True)
+                       for key in order} if pool is not None else {}
+            for data in list(DATA_FILES.values())[:-1]:
+                data.write(result, staging / data.file, {})
+            for key in order:
+                drawn[key] = (futures[key].result() if pool is not None
+                              else FIGURES[key].draw(inputs, staging / figures[key], True))
+        report = DATA_FILES["report"]
+        report.write(result, staging / report.file, {k: drawn[k] for k in figures})
         written = {}
+        keys = {d.file: k for k, d in DATA_FILES.items()} | {v: k for k, v in figures.items()}
         for path in sorted(staging.iterdir()):
             final = out_dir / path.name
             if final.exists() and not overwrite:
                 raise DrumrollError(f"{final}: appeared while we were working; not replaced")
             os.replace(path, final)
-            written[path.stem] = final
+            written[keys.get(path.name, path.stem)] = final
         finished = True
         return written
     finally:

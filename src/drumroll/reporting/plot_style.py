@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from drumroll import fileio
 from drumroll.physics.models import MODELS
@@ -159,49 +159,10 @@ def flat_draws(idata, group: str, name: str) -> NDArray[np.float64]:
     return values.reshape((-1, *values.shape[2:]))
 
 
-def band(draws: NDArray[np.float64], prob: float = BAND
-         ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Lower edge, median and upper edge of the central ``prob`` interval along axis 0."""
-    lo, mid, hi = np.nanquantile(draws, [(1 - prob) / 2, 0.5, (1 + prob) / 2], axis=0)
-    return lo, mid, hi
 
 
-def observed_onsets(idata) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Observed onset times (s) and the extractor's per-onset sigmas (s, zeros if absent)."""
-    times = np.asarray(idata.observed_data["onset_time"].values, dtype=float)
-    sigmas = np.zeros_like(times)
-    if "constant_data" in idata.groups() and "onset_sigma_s" in idata.constant_data:
-        sigmas = np.nan_to_num(np.asarray(idata.constant_data["onset_sigma_s"].values, float))
-    return times, np.broadcast_to(sigmas, times.shape).astype(float)
 
 
-def observed_bounces(idata) -> NDArray[np.int64]:
-    """The bounce number k of each observed onset: the ``onset`` coordinate (0, 1, 2, … in
-    files written before bounce numbers were stored, and whenever no bounce is missing)."""
-    observed = idata.observed_data["onset_time"]
-    if "onset" in observed.coords:
-        return np.asarray(observed["onset"].values).astype(np.int64)
-    return np.arange(observed.shape[-1], dtype=np.int64)
 
 
-def single_flights(bounces: ArrayLike, rolls: ArrayLike | None = None) -> NDArray[np.intp]:
-    """Indices i ≥ 1 of the onsets that end one whole flight.
 
-    Onset i ends flight k = ``bounces[i]`` (physics.md: flight k lies between impacts k − 1
-    and k) when onset i − 1 is bounce k − 1 (of the same roll, when ``rolls`` are given); then
-    t_i − t_{i−1} is T_k. Across a missing bounce the time between two onsets spans several
-    flights and is no flight: every figure and table of flight times leaves it out.
-    """
-    bounces = np.asarray(bounces, dtype=np.int64)
-    ends = np.diff(bounces) == 1
-    if rolls is not None:
-        rolls = np.asarray(rolls)
-        ends &= rolls[1:] == rolls[:-1]
-    return np.flatnonzero(ends) + 1
-
-
-def jitter_s(idata) -> float:
-    """Posterior median of the onset jitter, in seconds (0 if the model has none)."""
-    if "jitter_ms" not in idata.posterior:
-        return 0.0
-    return float(np.nanmedian(idata.posterior["jitter_ms"].values)) * 1e-3

@@ -18,16 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
+from drumroll.inference.inference_data import observed_bounces, observed_onsets
+from drumroll.inference.summary import central_band
 from drumroll.reporting.plot_style import (
     BAND,
     DATA_COLOR,
-    band,
     flat_draws,
     model_color,
     model_name,
     new_figure,
-    observed_bounces,
-    observed_onsets,
     ordered_models,
     save_figure,
     style,
@@ -58,13 +57,13 @@ def onset_residuals(idata) -> dict[str, np.ndarray]:
     """
     times, sigmas = observed_onsets(idata)
     replicated = flat_draws(idata, "posterior_predictive", "onset_time")
-    lo, mid, hi = band(replicated)
+    lo, mid, hi = central_band(replicated)
     bounces = observed_bounces(idata)
     out = {"time": times, "bounce": bounces, "residual": times - mid, "sigma": sigmas,
            "pp_lo": lo - mid, "pp_hi": hi - mid}
     model = noise_free_onsets(idata)
     if model is not None and model.shape[1] > bounces[-1]:
-        m_lo, _, m_hi = band(model[:, bounces])
+        m_lo, _, m_hi = central_band(model[:, bounces])
         out["model_lo"], out["model_hi"] = m_lo - mid, m_hi - mid
     return out
 

@@ -2,23 +2,26 @@
 
 One row per sampled parameter: on the left every walker's path after burn-in (all walkers
 faint, four highlighted so that single paths can be followed), on the right the marginal
-histogram of all draws with the 90 % interval shaded. Each row's title gives the split
-R-hat and the bulk effective sample size (ArviZ); with emcee the walkers are ArviZ's chains,
-so R-hat compares walkers. Slow drifts, walkers stuck apart or a marginal with several
+histogram of all draws with the 90 % interval shaded. Each row's title gives the R-hat and
+the bulk effective sample size it is given (those of ``summary.json``, computed on every
+draw). Slow drifts, walkers stuck apart or a marginal with several
 humps are what to look for.
 """
 
 from __future__ import annotations
 
+import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from drumroll.inference.results import ParameterSummary
+from drumroll.inference.summary import central_band
 from drumroll.reporting.plot_style import (
     BAND,
     OKABE_ITO,
-    band,
     model_color,
     model_name,
     new_figure,
@@ -31,8 +34,6 @@ from drumroll.reporting.plot_style import (
 
 #: Colours of the highlighted walkers (none of them a model colour).
 _HIGHLIGHT = (OKABE_ITO["orange"], OKABE_ITO["purple"], OKABE_ITO["sky"])
-#: R-hat above this is flagged in the titles.
-RHAT_LIMIT = 1.01
 
 
 def _attr(idata, name: str) -> float | None:
@@ -48,38 +49,19 @@ def _attr(idata, name: str) -> float | None:
         return None
 
 
-def diagnostics(idata, names: list[str]) -> dict[str, tuple[float, float]]:
-    """Split R-hat and bulk ESS per parameter (NaN where ArviZ cannot compute them).
-
-    Where ``estimate`` stored them on the variable (``r_hat``, ``ess_bulk`` attributes:
-    computed on every draw, before the stored posterior was thinned), those are shown, so
-    the figure and ``summary.json`` agree.
-    """
-    import arviz as az
-
-    result = {}
-    for name in names:
-        stored = idata.posterior[name].attrs
-        if "r_hat" in stored and "ess_bulk" in stored:
-            result[name] = (float(stored["r_hat"]), float(stored["ess_bulk"]))
-            continue
-        values = np.asarray(idata.posterior[name].values, float)
-        try:
-            rhat = float(az.rhat(values))
-            ess = float(az.ess(values))
-        except Exception:  # too few draws or chains: report, do not fail
-            rhat = ess = float("nan")
-        result[name] = (rhat, ess)
-    return result
-
-
-def draw_trace(idata, n_highlight: int = 3):
+def draw_trace(idata, stats: Mapping[str, ParameterSummary], max_r_hat: float = 1.01,
+               n_highlight: int = 3):
     """Build the trace figure (a :class:`matplotlib.figure.Figure`) of ``idata``.
 
     Parameters
     ----------
     idata
-        One model's InferenceData (walkers as chains).
+        One model's InferenceData (walkers as chains; its stored draws may be thinned).
+    stats
+        The summaries of its variables computed on every draw: the R-hat and bulk ESS in
+        the titles are these, the ones ``summary.json`` gives.
+    max_r_hat
+        The sampler's R-hat target (``[sampler] max_r_hat``): an R-hat above it is flagged.
     n_highlight
         Number of walkers drawn in colour over the faint rest.
     """
@@ -90,7 +72,6 @@ def draw_trace(idata, n_highlight: int = 3):
         raise ValueError("the posterior has no varying parameter to draw")
     model = str(idata.attrs.get("model", ""))
     color = model_color(model)
-    stats = diagnostics(idata, names)
 
     n_chain, n_draw = idata.posterior[names[0]].shape
     burn, thin = _attr(idata, "burn"), _attr(idata, "thin")
@@ -121,7 +102,7 @@ def draw_trace(idata, n_highlight: int = 3):
         ax.margins(x=0)
         flat = values.ravel()
         flat = flat[np.isfinite(flat)]
-        lo, mid, hi = band(flat)
+        lo, mid, hi = central_band(flat)
         ax_hist.hist(flat, bins=40, orientation="horizontal", histtype="stepfilled",
                      color=color, alpha=0.35, lw=0)
         ax_hist.hist(flat, bins=40, orientation="horizontal", histtype="step", color=color,
@@ -132,10 +113,11 @@ def draw_trace(idata, n_highlight: int = 3):
         ax_hist.tick_params(labelleft=False, left=False)
         ax_hist.set_xticks([])
         ax_hist.spines["bottom"].set_visible(False)
-        rhat, ess = stats[name]
-        flag = np.isfinite(rhat) and rhat >= RHAT_LIMIT
+        rhat, ess = (math.nan if value is None else float(value)
+                     for value in (stats[name].r_hat, stats[name].ess_bulk))
+        flag = np.isfinite(rhat) and rhat >= max_r_hat
         ax.set_title(f"{parameter_symbol(name)}:  $\\hat{{R}}$ = {rhat:.4f}"
-                     f"{'  (not below ' + str(RHAT_LIMIT) + ')' if flag else ''},  "
+                     f"{'  (not below ' + str(max_r_hat) + ')' if flag else ''},  "
                      f"bulk ESS = {ess:.0f}", loc="left", fontsize=9.5,
                      color=OKABE_ITO["vermillion"] if flag else "black")
     axes[-1, 0].set_xlabel(xlabel)
@@ -154,8 +136,9 @@ def draw_trace(idata, n_highlight: int = 3):
     return fig
 
 
-def plot_trace(idata, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+def plot_trace(idata, stats: Mapping[str, ParameterSummary], path: str | os.PathLike[str], *,
+               max_r_hat: float = 1.01, overwrite: bool = False) -> Path:
     """Write ``trace.png`` (see :func:`draw_trace`) to ``path`` atomically."""
     with style():
-        fig = draw_trace(idata)
+        fig = draw_trace(idata, stats, max_r_hat)
     return save_figure(fig, path, overwrite=overwrite)

@@ -14,28 +14,76 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import math
 import os
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor, Future, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from drumroll import __version__, fileio
 from drumroll.errors import DrumrollError
+from drumroll.inference.results import ParameterSummary, Record, Summary
 from drumroll.table.runs import Run, RunsFile, validate_estimation
 from drumroll.workers import process_pool
 
 #: Bumped whenever the cached row's layout changes (old entries are then recomputed).
-CACHE_SCHEMA = 2
+CACHE_SCHEMA = 3
 #: Monte Carlo draws of the computed t_B (the sd's relative precision is ~0.5 %).
 PREDICT_DRAWS = 20_000
 #: Seed of the computed t_B's draws.
 PREDICT_SEED = 0
 
 Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Estimate(Record):
+    """A value with its error (None when not known): a posterior mean ± sd, or a prior
+    propagation's mean ± sd."""
+
+    value: float | None = None
+    err: float | None = None
+
+    @classmethod
+    def of(cls, stats: ParameterSummary | None) -> Estimate:
+        """The mean ± sd of a posterior summary (None: both None)."""
+        return cls() if stats is None else cls(stats.mean, stats.sd)
+
+
+@dataclass(frozen=True)
+class RunRow(Record):
+    """One run of a table, as cached: the estimate's summary and the prior propagation.
+
+    Attributes
+    ----------
+    summary
+        The run's :class:`~drumroll.inference.results.Summary`.
+    computed_t_b
+        Model → t_B propagated from the priors (the paper's "computed t_B").
+    seconds
+        Wall time of the run.
+    """
+
+    nested: ClassVar[dict[str, tuple[type[Record], str]]] = {
+        "summary": (Summary, "one"), "computed_t_b": (Estimate, "dict")}
+
+    schema: int = CACHE_SCHEMA
+    version: str = ""
+    summary: Summary = field(default_factory=Summary)
+    computed_t_b: dict[str, Estimate] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    @property
+    def alpha(self) -> Estimate:
+        """The main model's α (posterior mean ± sd)."""
+        return Estimate.of(self.summary.parameters.get("alpha"))
+
+    @property
+    def fitted_t_b(self) -> Estimate:
+        """The main model's t_B (posterior mean ± sd)."""
+        return Estimate.of(self.summary.parameters.get("t_b"))
 
 
 @dataclass
@@ -57,7 +105,7 @@ class TableResult:
     """
 
     runs: RunsFile
-    rows: list[dict[str, Any]]
+    rows: list[RunRow]
     computed: list[str] = field(default_factory=list)
     joint: dict[str, Any] | None = None
     seconds: float = 0.0
@@ -101,95 +149,59 @@ def run_key(run: Run) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:40]
 
 
-def _value_error(entry: dict[str, Any] | None) -> dict[str, float | None]:
-    if entry is None:
-        return {"value": None, "err": None}
-    return {"value": entry["mean"], "err": entry["sd"]}
-
-
 def compute_run(source: str, raw: dict[str, Any], roll: int | None = None,
-                stream: int | None = None) -> dict[str, Any]:
+                stream: int | None = None) -> RunRow:
     """Estimate one run (roll ``roll`` of its source, default the longest; audio stream
-    ``stream``, default the first) and propagate its priors; the JSON-ready row data.
+    ``stream``, default the first) and propagate its priors.
 
     Runs in a worker (a process or a Dask worker): it takes only picklable, plain inputs and
     imports the heavy modules itself.
-
-    Returns
-    -------
-    dict
-        ``model``, ``n_onsets``, ``computed_t_b`` (model → value/err), ``fitted_t_b``,
-        ``alpha`` (value/err: posterior mean and sd of the main model), ``parameters`` (the
-        main model's summary), ``preferred``, ``verdict``, ``warnings``, ``notes`` (other
-        rolls, missing bounces), ``roll`` and ``n_rolls``, the fitted onsets (``onsets_s``,
-        ``onset_sigmas_s``, ``onset_bounces``), ``flights`` (observed flight times with
-        errors, ``None`` where not observed, and the main model's posterior median and 90 %
-        band, for Figure 5) and ``seconds``.
     """
     from drumroll.config import parse_config
     from drumroll.inference.prior_predictive import propagate
     from drumroll.physics import GEOMETRIC_MODELS
     from drumroll.pipeline import estimate
-    from drumroll.reporting.bounce_series import observed_flights
-    from drumroll.reporting.plot_style import band, flat_draws
 
     started = time.perf_counter()
     config = parse_config(raw)
     result = estimate(source, config, roll=roll,
                       **({} if stream is None else {"stream": stream}))
-    computed: dict[str, dict[str, float]] = {}
+    computed: dict[str, Estimate] = {}
     if config.stick is not None:
         for model in GEOMETRIC_MODELS:
-            summary = propagate(config, model, n_flights=1, n_draws=PREDICT_DRAWS,
-                                seed=PREDICT_SEED).summary()
-            computed[model] = _value_error(summary["t_b"])
-    main = result.idatas[config.model]
-    lo, median, hi = band(flat_draws(main, "posterior_predictive", "flight_time_model"))
-    observed, observed_err = observed_flights(main)
-    parameters = result.summary["parameters"]
-    warnings = [w for d in result.summary["diagnostics"].values() for w in d["warnings"]]
-    return {
-        "schema": CACHE_SCHEMA,
-        "version": __version__,
-        "model": config.model,
-        "n_onsets": result.summary["n_onsets"],
-        "computed_t_b": computed,
-        "fitted_t_b": _value_error(parameters.get("t_b")),
-        "alpha": _value_error(parameters.get("alpha")),
-        "parameters": parameters,
-        "preferred": result.preferred,
-        "verdict": result.summary["verdict"],
-        "warnings": warnings,
-        "notes": result.summary["notes"],
-        "roll": result.summary["roll"],
-        "n_rolls": result.summary["n_rolls"],
-        "onsets_s": [o["time_s"] for o in result.summary["onsets"]],
-        "onset_sigmas_s": [o["sigma_s"] for o in result.summary["onsets"]],
-        "onset_bounces": [o["bounce"] for o in result.summary["onsets"]],
-        "flights": {"observed": _finite_or_none(observed),
-                    "observed_err": _finite_or_none(observed_err),
-                    "lo": lo.tolist(), "median": median.tolist(), "hi": hi.tolist()},
-        "seconds": time.perf_counter() - started,
-    }
+            prediction = propagate(config, model, n_flights=1, n_draws=PREDICT_DRAWS,
+                                   seed=PREDICT_SEED).summary()["t_b"]
+            computed[model] = Estimate(prediction["mean"], prediction["sd"])
+    return RunRow(version=__version__, summary=result.summary, computed_t_b=computed,
+                  seconds=time.perf_counter() - started)
 
 
-def _finite_or_none(values: Any) -> list[float | None]:
-    """A list for JSON: None where a value is NaN (a flight that was not observed)."""
-    return [float(v) if math.isfinite(v) else None for v in values]
-
-
-def read_cached(path: Path) -> dict[str, Any] | None:
-    """A cached row, or None when absent, unreadable or of another schema."""
+def read_json(path: Path) -> dict[str, Any] | None:
+    """A cache entry's JSON, or None when absent, unreadable or of another schema."""
     try:
-        row = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
-    return row if isinstance(row, dict) and row.get("schema") == CACHE_SCHEMA else None
+    return data if isinstance(data, dict) and data.get("schema") == CACHE_SCHEMA else None
 
 
-def write_cached(folder: Path, key: str, row: dict[str, Any]) -> None:
+def read_cached(path: Path) -> RunRow | None:
+    """A cached row, or None when absent, unreadable, damaged or of another schema."""
+    data = read_json(path)
+    if data is None:
+        return None
+    try:
+        return RunRow.from_json(data)
+    except (TypeError, ValueError, KeyError, AttributeError):
+        return None  # a damaged entry is recomputed
+
+
+def write_cached(folder: Path, key: str, entry: RunRow | dict[str, Any]) -> None:
+    """Write a cache entry (a row, or a joint fit's JSON) atomically."""
+    data = entry.to_json() if isinstance(entry, Record) else entry
     folder.mkdir(parents=True, exist_ok=True)
-    fileio.write_text(folder / f"{key}.json", json.dumps(row, indent=1), overwrite=True)
+    fileio.write_text(folder / f"{key}.json", json.dumps(data, indent=1, ensure_ascii=False),
+                      overwrite=True)
 
 
 def default_workers() -> int:
@@ -227,7 +239,7 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
     started = time.perf_counter()
     folder = cache_dir if cache_dir is not None else runs.cache_dir
     keys = [run_key(run) for run in runs.runs]
-    rows: list[dict[str, Any] | None] = [None] * len(runs.runs)
+    rows: list[RunRow | None] = [None] * len(runs.runs)
     if use_cache:
         for i, key in enumerate(keys):
             rows[i] = read_cached(folder / f"{key}.json")
@@ -237,12 +249,12 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
     if len(todo) < len(rows):
         say(f"{len(rows) - len(todo)} of {len(rows)} runs from the cache ({folder})")
 
-    def finish(i: int, row: dict[str, Any]) -> None:
+    def finish(i: int, row: RunRow) -> None:
         rows[i] = row
         if use_cache:
             write_cached(folder, keys[i], row)
         done = sum(r is not None for r in rows)
-        say(f"run {runs.runs[i].label!r}: done in {row['seconds']:.1f} s ({done}/{len(rows)})")
+        say(f"run {runs.runs[i].label!r}: done in {row.seconds:.1f} s ({done}/{len(rows)})")
 
     errors: list[DrumrollError] = []
 
@@ -277,7 +289,7 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
 
 
 def _submit_all(executor: Executor, runs: RunsFile, todo: list[int],
-                finish: Callable[[int, dict[str, Any]], None],
+                finish: Callable[[int, RunRow], None],
                 fail: Callable[[int, DrumrollError], None]) -> None:
     """Submit the runs in ``todo``; hand each result to ``finish`` (or its user error to
     ``fail``) as it completes. Anything else, Ctrl-C included, cancels the runs not started."""

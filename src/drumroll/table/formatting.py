@@ -13,7 +13,7 @@ import math
 from typing import Any
 
 from drumroll.reporting.numbers import format_value_error
-from drumroll.table.execute import TableResult
+from drumroll.table.execute import Estimate, TableResult
 from drumroll.table.runs import vary_spec, vary_value
 
 FORMATS = ("markdown", "csv", "latex", "json")
@@ -52,28 +52,28 @@ def table_rows(result: TableResult) -> list[dict[str, Any]]:
     joint_rows = (result.joint or {}).get("rows", {})
     for run, row in zip(result.runs.runs, result.rows, strict=True):
         vary = vary_value(run, result.runs.vary) if result.runs.vary else None
-        computed = row["computed_t_b"]
+        computed, summary = row.computed_t_b, row.summary
         entry: dict[str, Any] = {
             "label": run.label,
             "group": run.group,
             "source": str(run.source),
             "vary": None if vary is None else {"key": result.runs.vary, "value": vary[0],
                                                 "err": vary[1]},
-            "computed_t_b": computed.get("small-angle", {"value": None, "err": None}),
-            "computed_t_b_pendulum": computed.get("pendulum", {"value": None, "err": None}),
-            "fitted_t_b": row["fitted_t_b"],
-            "alpha": row["alpha"],
-            "model": row["model"],
-            "preferred": row["preferred"],
-            "verdict": row["verdict"],
-            "n_onsets": row["n_onsets"],
-            "notes": row.get("notes", []),
-            "warnings": row["warnings"],
+            "computed_t_b": computed.get("small-angle", Estimate()).to_json(),
+            "computed_t_b_pendulum": computed.get("pendulum", Estimate()).to_json(),
+            "fitted_t_b": row.fitted_t_b.to_json(),
+            "alpha": row.alpha.to_json(),
+            "model": summary.model,
+            "preferred": summary.preferred,
+            "verdict": summary.verdict,
+            "n_onsets": summary.n_onsets,
+            "notes": list(summary.notes),
+            "warnings": summary.warnings,
             "shared": list(result.runs.share),
         }
         if run.label in joint_rows:
-            entry["alpha_separate"] = row["alpha"]
-            entry["fitted_t_b_separate"] = row["fitted_t_b"]
+            entry["alpha_separate"] = row.alpha.to_json()
+            entry["fitted_t_b_separate"] = row.fitted_t_b.to_json()
             entry.update(joint_rows[run.label])
         out.append(entry)
     return out

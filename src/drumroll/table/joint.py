@@ -29,8 +29,10 @@ from numpy.typing import NDArray
 from drumroll.quantities import PARAMETERS
 from drumroll.table.execute import (
     CACHE_SCHEMA,
+    Estimate,
+    RunRow,
     TableResult,
-    read_cached,
+    read_json,
     run_key,
     write_cached,
 )
@@ -155,7 +157,7 @@ def joint_key(keys: list[str], share: tuple[str, ...]) -> str:
     return "joint-" + hashlib.sha256(text.encode()).hexdigest()[:40]
 
 
-def fit_joint(runs: RunsFile, rows: list[dict[str, Any]]) -> dict[str, Any]:
+def fit_joint(runs: RunsFile, rows: list[RunRow]) -> dict[str, Any]:
     """Sample the joint posterior of ``runs`` (onsets from their ``rows``) and summarise it.
 
     Returns
@@ -173,18 +175,15 @@ def fit_joint(runs: RunsFile, rows: list[dict[str, Any]]) -> dict[str, Any]:
     from drumroll.inference.posterior import LogPosterior
     from drumroll.inference.sampling import run_emcee
     from drumroll.inference.settings import estimate_settings
-    from drumroll.pipeline import choose_roll, load_onsets
 
     parts, settings = [], None
     for run, row in zip(runs.runs, rows, strict=True):
         config = validate_estimation(run)
         own = estimate_settings(config.sections)
         settings = settings or own
-        if "onset_bounces" in row:  # the onsets the run's own fit used
-            data = OnsetData.from_arrays(row["onsets_s"], row["onset_sigmas_s"],
-                                         row["onset_bounces"])
-        else:
-            data = choose_roll(load_onsets(run.source), run.roll, str(run.source)).data
+        onsets = row.summary.onsets  # the onsets the run's own fit used
+        data = OnsetData.from_arrays([o.time_s for o in onsets], [o.sigma_s for o in onsets],
+                                     [o.bounce for o in onsets])
         parts.append(LogPosterior.build(config, config.model, data, own.noise, own.nu))
     shared = tuple(PARAMETERS[key].name for key in runs.share)
     posterior = JointPosterior(parts, [r.label for r in runs.runs], shared)
@@ -206,9 +205,8 @@ def fit_joint(runs: RunsFile, rows: list[dict[str, Any]]) -> dict[str, Any]:
         entry = {"fitted_t_b": _value_error(variables["t_b"].ravel())}
         entry.update({key: out_shared[key] for key in runs.share})
         out_rows[run.label] = entry
-    separate = {key: {r.label: (row["parameters"].get(key) and
-                                {"value": row["parameters"][key]["mean"],
-                                 "err": row["parameters"][key]["sd"]})
+    separate = {key: {r.label: (Estimate.of(row.summary.parameters[key]).to_json()
+                                if key in row.summary.parameters else None)
                       for r, row in zip(runs.runs, rows, strict=True)}
                 for key in runs.share}
     finite = chain.tau[np.isfinite(chain.tau)]
@@ -225,7 +223,7 @@ def joint_table(runs: RunsFile, result: TableResult, *, cache_dir: Path | None =
     folder = cache_dir if cache_dir is not None else runs.cache_dir
     key = joint_key([run_key(run) for run in runs.runs], runs.share)
     if use_cache:
-        cached = read_cached(folder / f"{key}.json")
+        cached = read_json(folder / f"{key}.json")
         if cached is not None:
             return cached
     joint = fit_joint(runs, result.rows)

@@ -5,14 +5,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from drumroll.inference.results import Summary
 from drumroll.table.execute import TableResult
 
 
-def panels(result: TableResult) -> list[tuple[str | None, list[tuple[str, dict]]]]:
-    """``(group, [(label, row), …])`` per group, in the order the groups first appear."""
+def panels(result: TableResult) -> list[tuple[str | None, list[tuple[str, Summary]]]]:
+    """``(group, [(label, summary), …])`` per group, in the order the groups first appear."""
     out: dict[str | None, list[tuple[str, dict]]] = {}
     for run, row in zip(result.runs.runs, result.rows, strict=True):
-        out.setdefault(run.group, []).append((run.label, row))
+        out.setdefault(run.group, []).append((run.label, row.summary))
     return list(out.items())
 
 
