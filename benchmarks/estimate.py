@@ -190,7 +190,7 @@ def ess_alpha(chain: np.ndarray) -> float:
 def sampler_peer(source: Path, config: Path) -> None:
     cfg = load_config(config)
     data = choose_roll(load_onsets(source)).data  # the roll estimate fits, as it numbers it
-    settings = estimate_settings(cfg.sections)  # the config's noise model, as estimate uses
+    settings = estimate_settings(cfg)  # the config's noise model, as estimate uses
     log_posterior = LogPosterior.build(cfg, "pendulum", data, settings.noise, settings.nu)
     i_alpha = log_posterior.space.names.index("alpha")
 

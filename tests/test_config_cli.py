@@ -131,3 +131,34 @@ def test_usage_error_exits_2(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["predict"])
     assert exc.value.code == 2
+
+
+def test_config_reads_no_later_stage_and_parses_their_sections_when_asked():
+    """Loading a config imports neither the samplers nor the simulator (they register their
+    sections' parsers); a section is parsed by its stage's parser when asked for."""
+    code = textwrap.dedent("""\
+        import sys
+        from drumroll.config import parse_config
+        priors = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
+                  "t_b": {"dist": "uniform", "low": 0.1, "high": 1.0}}
+        config = parse_config({"model": "powerlaw", "priors": priors,
+                               "sampler": {"seed": 3}, "simulate": {"n_bounces": 12, "alpha": 0.8,
+                                                                "pivot_mm": 131, "height_mm": 80}})
+        assert not any(m.startswith(("drumroll.inference", "drumroll.simulation", "emcee"))
+                       for m in sys.modules), sorted(sys.modules)
+        assert config.sections == {}
+        from drumroll.inference.settings import estimate_settings
+        assert estimate_settings(config).sampler.seed == 3
+        import drumroll.simulation.settings
+        assert config.section("simulate").n_bounces == 12
+        """)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=False)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_a_section_is_registered_under_a_known_name_only():
+    from drumroll.config.loader import register_section
+
+    with pytest.raises(ValueError, match="unknown config section 'smapler'"):
+        register_section("smapler", lambda table, where: table)

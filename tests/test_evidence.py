@@ -221,7 +221,7 @@ def test_cheap_evidence_agrees_with_dynesty_on_a_bundled_recording(model, cheap_
 
     root = Path(__file__).resolve().parents[1] / "data"
     config = load_config(root / "table2_h80.toml")
-    settings = estimate_settings(config.sections)
+    settings = estimate_settings(config)
     onsets = load_onsets(root / "table2_h80.flac")
     lp = LogPosterior.build(config, model, choose_roll(onsets).data, settings.noise,
                             settings.nu)

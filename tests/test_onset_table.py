@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from drumroll.errors import DrumrollError
-from drumroll.onsets import COLUMNS, OnsetTable, read_onsets
+from drumroll.onsets import COLUMNS, ONSET_FILE_SUFFIXES, ONSET_FORMATS, OnsetTable, read_onsets
 
 OLD_HEADER = "time_s,amplitude,snr_db,sigma_s,interval_s"
 
@@ -162,3 +162,23 @@ def test_plain_text_is_one_roll_numbered_in_order(tmp_path):
     table = read_onsets(path)
     np.testing.assert_array_equal(table.bounce, np.arange(7))
     assert table.rolls == (0,)
+
+
+@pytest.mark.parametrize("fmt", list(ONSET_FORMATS.values()), ids=list(ONSET_FORMATS))
+def test_every_onset_format_reads_back_what_it_writes(fmt, tmp_path):
+    """Written in a format and read back (recognised by content, whatever the suffix), the
+    onsets keep their times, and their numbers where the format carries them."""
+    carries_numbers = fmt.name != "text"
+    times = np.array([0.5, 0.72, 0.88, 1.0])
+    table = two_rolls() if carries_numbers else OnsetTable(times, np.ones(4), np.ones(4),
+                                                           np.zeros(4))
+    for suffix in fmt.suffixes:
+        assert suffix in ONSET_FILE_SUFFIXES
+        path = tmp_path / f"onsets{suffix}"
+        path.write_text(fmt.write(table))
+        again = read_onsets(path)
+        np.testing.assert_allclose(again.time_s, table.time_s, atol=1e-6)
+        np.testing.assert_array_equal(again.bounce, table.bounce)
+        np.testing.assert_array_equal(again.roll, table.roll)
+        first = next(line for line in path.read_text().splitlines() if line)
+        assert next(f.name for f in ONSET_FORMATS.values() if f.recognises(first)) == fmt.name

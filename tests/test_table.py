@@ -19,8 +19,9 @@ from drumroll.inference.results import (
     ParameterSummary,
     Summary,
 )
-from drumroll.table import load_runs, render
+from drumroll.table import FORMATS, load_runs, render
 from drumroll.table.execute import Estimate, RunRow, TableResult, run_key
+from drumroll.table.formatting import format_for
 from drumroll.table.plot import plot_table
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -207,3 +208,12 @@ def test_figure5_from_rows(fake_result, tmp_path):
     assert path.stat().st_size > 10_000
     with pytest.raises(Exception, match="already exists"):
         plot_table(fake_result, tmp_path / "fig.png")
+
+
+@pytest.mark.parametrize("fmt", list(FORMATS.values()), ids=list(FORMATS))
+def test_every_table_format_writes_every_run_and_is_chosen_by_its_suffixes(fmt, fake_result):
+    text = render(fake_result, fmt.name)
+    assert "h80" in text and "0.86" in text and "0.88" in text
+    for suffix in fmt.suffixes:
+        assert format_for(suffix.upper()) == fmt.name
+    assert format_for(".txt") == "markdown"

@@ -16,12 +16,7 @@ The data's path through the package:
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("drumroll")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0+unknown"
+from drumroll._version import __version__
 
 __all__ = ["__version__", "estimate"]
 

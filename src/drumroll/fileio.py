@@ -15,9 +15,6 @@ from pathlib import Path
 
 from drumroll.errors import DrumrollError
 
-#: Suffixes read as onset lists (our CSV, Audacity labels, plain text) rather than audio.
-ONSET_FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".lab", ".labels")
-
 
 def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
     """Refuse to replace an existing file unless ``overwrite`` is set.

@@ -25,11 +25,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from drumroll import __version__
+from drumroll._version import __version__
 from drumroll.audio.io import AudioSource
 from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
-from drumroll.fileio import ONSET_FILE_SUFFIXES
 from drumroll.inference.evidence import Evidence, choose_evidence
 from drumroll.inference.inference_data import build_inference_data, parameter_draws
 from drumroll.inference.likelihood import OnsetData
@@ -43,7 +42,7 @@ from drumroll.inference.results import (
 )
 from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
-from drumroll.onsets import OnsetTable, detect, read_onsets
+from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
 from drumroll.quantities import BY_NAME
 from drumroll.workers import process_pool
 
@@ -329,7 +328,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     say = progress or (lambda message: None)
     if not isinstance(config, Config):
         config = load_config(config)
-    settings = estimate_settings(config.sections)
+    settings = estimate_settings(config)
     seconds: dict[str, float] = {}
     started = time.perf_counter()
     name = "the onsets" if isinstance(source, OnsetTable) else str(source)

@@ -46,7 +46,7 @@ import av
 import av.logging
 import numpy as np
 
-from drumroll.audio.io import AudioInfo
+from drumroll.audio.info import AudioInfo
 from drumroll.errors import AudioError, DrumrollWarning
 
 #: FFmpeg decoder names → the codec's usual name (the one the timing table and messages use).

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import soundfile as sf
 
+from drumroll.audio.info import AudioInfo
 from drumroll.errors import AudioError, DrumrollWarning
 
 if TYPE_CHECKING:
@@ -56,58 +57,6 @@ _SF_LOSSY = {"VORBIS": "vorbis", "OPUS": "opus", "MPEG_LAYER_I": "mp1",
              "G721_32": "g721", "G723_24": "g723", "G723_40": "g723",
              "NMS_ADPCM_16": "adpcm_nms", "NMS_ADPCM_24": "adpcm_nms",
              "NMS_ADPCM_32": "adpcm_nms"}
-
-
-@dataclass(frozen=True)
-class AudioInfo:
-    """What a recording holds.
-
-    Attributes
-    ----------
-    path
-        The file.
-    sample_rate
-        Samples per second per channel.
-    frames
-        Samples per channel (as declared by a soundfile header, where a truncated file may
-        hold fewer; exact for a file FFmpeg decodes, which is decoded whole).
-    channels
-        Number of channels (they are averaged to mono when read).
-    format, subtype
-        soundfile's names for the container and the sample encoding; for a file FFmpeg
-        decodes, the container's short name and the decoder's sample format (``FLTP``,
-        ``S16``, ``S32P``, ...).
-    container, codec
-        Short lower-case names: ``wav``/``pcm_16``, ``ogg``/``vorbis``, ``m4a``/``aac``,
-        ``mp4``/``aac``, ``3gp``/``amrnb``, ``webm``/``opus``, ...
-    stream
-        Which audio stream of the file (0-based among its audio streams).
-    bit_rate
-        Bits per second of a lossy codec's stream (what was stored; from the file's size for
-        soundfile's formats); None for lossless audio.
-    lossless
-        Whether the codec gives back exactly the samples it was given.
-    decoder
-        ``"soundfile"`` or ``"ffmpeg"``.
-    """
-
-    path: Path
-    sample_rate: int
-    frames: int
-    channels: int
-    format: str
-    subtype: str
-    container: str = ""
-    codec: str = ""
-    stream: int = 0
-    bit_rate: int | None = None
-    lossless: bool = True
-    decoder: str = "soundfile"
-
-    @property
-    def duration_s(self) -> float:
-        """Length in seconds."""
-        return self.frames / self.sample_rate
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from drumroll.cli.arguments import non_negative_int, positive_int
 from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
-from drumroll.fileio import ONSET_FILE_SUFFIXES
+from drumroll.onsets import ONSET_FILE_SUFFIXES
 from drumroll.quantities import QUANTITIES
 from drumroll.reporting.numbers import format_value_error
 
@@ -72,7 +72,7 @@ def _truths(path: Path | None) -> dict[str, float] | None:
 
 
 def _apply_overrides(config, args: argparse.Namespace):
-    sampler = dict(config.sections.get("sampler", {}))
+    sampler = dict(config.section("sampler", {}))
     if args.seed is not None:
         sampler["seed"] = args.seed
     if args.workers is not None:

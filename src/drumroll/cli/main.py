@@ -14,7 +14,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from drumroll import __version__
+from drumroll._version import __version__
 from drumroll.errors import DrumrollError
 
 #: Subcommand modules, in the order ``drumroll --help`` lists them.

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import soundfile as sf
 
-from drumroll import __version__
+from drumroll._version import __version__
 from drumroll.errors import ConfigError, DrumrollError, DrumrollWarning
 from drumroll.fileio import check_writable, write_text, write_with
 
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if truth_path.resolve() == output.resolve():
         raise DrumrollError(f"{truth_path}: the truth file cannot be the recording itself")
     config = load_config(args.config)
-    settings: SimulateSettings | None = config.sections.get("simulate")
+    settings: SimulateSettings | None = config.section("simulate")
     if settings is None:
         raise ConfigError(f"{args.config}: simulate: missing section (the true set-up and the "
                           "recording to make)")

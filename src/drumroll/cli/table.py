@@ -14,9 +14,22 @@ from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
 from drumroll.fileio import check_writable, write_text
 
-#: Output format by file suffix.
-SUFFIX_FORMATS = {".md": "markdown", ".markdown": "markdown", ".csv": "csv", ".tex": "latex",
-                  ".json": "json"}
+
+class _TableFormats:
+    """The table formats' names as argparse ``choices``, read from their registry only when
+    asked (the registry imports the table's machinery, which ``--help`` should not wait
+    for)."""
+
+    def _names(self) -> list[str]:
+        from drumroll.table.formatting import FORMATS
+
+        return list(FORMATS)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+    def __iter__(self):
+        return iter(self._names())
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("runs", metavar="RUNS.toml", help="runs file (see drumroll.table.runs)")
     parser.add_argument("-o", "--output", type=Path, metavar="FILE",
                         help="write the table here (default: print it)")
-    parser.add_argument("--format", choices=("markdown", "csv", "latex", "json"),
+    parser.add_argument("--format", choices=_TableFormats(),
                         help="table format (default: from the -o suffix, else markdown)")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write Figure 5 here")
     parser.add_argument("--workers", type=positive_int, metavar="N",
@@ -68,10 +81,10 @@ def dask_executor(address: str) -> Iterator[Executor]:
 def run(args: argparse.Namespace) -> int:
     """Run ``table``: validate everything, then estimate, then write."""
     from drumroll.table import load_runs, render, run_table
+    from drumroll.table.formatting import format_for
 
     runs = load_runs(args.runs)
-    fmt = args.format or (SUFFIX_FORMATS.get(args.output.suffix.lower(), "markdown")
-                          if args.output else "markdown")
+    fmt = args.format or format_for(args.output.suffix if args.output else "")
     for path in (args.output, args.plot):
         if path is not None:
             check_writable(path, overwrite=args.force)

@@ -18,13 +18,14 @@ The format (lengths in mm, times in s, speeds in m/s, as in the paper's tables):
     ...
 
 Stick dimensions may also be distributions (``length_mm = { dist = "normal", mu = 348,
-sigma = 1 }``), which ``predict`` propagates. Sections added by later stages (``[simulate]``,
-…) are parsed by the functions registered in :data:`SECTION_PARSERS`.
+sigma = 1 }``), which ``predict`` propagates. The other sections (:data:`SECTIONS`:
+``[simulate]``, ``[sampler]``, ``[likelihood]``, ``[report]``) belong to the stages that read
+them: each stage registers its section's parser with :func:`register_section` when imported,
+so the config never imports the stages that use it.
 """
 
 from __future__ import annotations
 
-import importlib
 import math
 import tomllib
 from collections.abc import Callable, Mapping
@@ -36,21 +37,33 @@ import numpy as np
 
 from drumroll.config.priors_section import parse_prior
 from drumroll.config.validate import check_keys, number, string, table
+from drumroll.distributions import Distribution, Fixed
 from drumroll.errors import ConfigError
-from drumroll.inference.priors import Fixed, Prior
 from drumroll.physics import GEOMETRIC_MODELS, MODELS, STANDARD_GRAVITY, STICK_SHAPES
 from drumroll.physics.geometry import StickGeometry
 from drumroll.physics.models import parameter_keys
 from drumroll.quantities import DEFAULT_VALUES, PARAMETERS, STICK_DIMENSIONS
 
-#: Extra sections: name → "module:function"; the function takes (table, where) and returns
-#: the parsed section, raising ConfigError with the key's path on bad input.
-SECTION_PARSERS: dict[str, str] = {
-    "simulate": "drumroll.simulation.settings:parse_simulate",
-    "sampler": "drumroll.inference.settings:parse_sampler",
-    "likelihood": "drumroll.inference.settings:parse_likelihood",
-    "report": "drumroll.inference.settings:parse_report",
-}
+#: The sections of the file format read by later stages (the simulator, the sampler, …).
+SECTIONS: tuple[str, ...] = ("simulate", "sampler", "likelihood", "report")
+
+#: A section's parser: takes (table, where) and returns the parsed section, raising
+#: ConfigError with the key's path on bad input.
+SectionParser = Callable[[dict[str, Any], str], Any]
+
+_SECTION_PARSERS: dict[str, SectionParser] = {}
+
+
+def register_section(name: str, parser: SectionParser) -> None:
+    """Register the parser of the section ``name`` (one of :data:`SECTIONS`).
+
+    The stage that reads a section calls this when it is imported. A config parsed before
+    then keeps the section as read, and parses it when :meth:`Config.section` is first asked
+    for it.
+    """
+    if name not in SECTIONS:
+        raise ValueError(f"unknown config section {name!r} (expected one of {SECTIONS})")
+    _SECTION_PARSERS[name] = parser
 
 _TOP_LEVEL = ("model", "compare", "gravity_m_s2", "stick", "priors")
 
@@ -60,9 +73,9 @@ class StickSpec:
     """The ``[stick]`` section: a shape and dimensions that may be uncertain (SI units)."""
 
     shape: str
-    length: Prior
-    tip: Prior = field(default_factory=lambda: Fixed(0.0))
-    radius: Prior = field(default_factory=lambda: Fixed(0.0))
+    length: Distribution
+    tip: Distribution = field(default_factory=lambda: Fixed(0.0))
+    radius: Distribution = field(default_factory=lambda: Fixed(0.0))
 
     def nominal(self) -> StickGeometry:
         """The stick at the median of each dimension."""
@@ -86,14 +99,15 @@ class Config:
     compare
         Models to compare the main one against (never contains ``model``).
     priors
-        Prior per parameter by internal (SI) name, e.g. ``priors["pivot"]``; parameters the
+        Distribution per parameter by internal (SI) name, e.g. ``priors["pivot"]``; parameters the
         config leaves out take :data:`~drumroll.quantities.DEFAULT_VALUES`.
     stick
         The stick, or None when no model needs one.
     gravity
         g (m/s²).
     sections
-        Parsed extra sections (see :data:`SECTION_PARSERS`).
+        The later stages' sections (:data:`SECTIONS`) parsed so far: those whose parser was
+        registered when the file was read; :meth:`section` parses the others when asked.
     raw
         The file's content as read, for reports.
     path
@@ -102,7 +116,7 @@ class Config:
 
     model: str
     compare: tuple[str, ...]
-    priors: dict[str, Prior]
+    priors: dict[str, Distribution]
     stick: StickSpec | None
     gravity: float = STANDARD_GRAVITY
     sections: dict[str, Any] = field(default_factory=dict)
@@ -113,6 +127,18 @@ class Config:
     def models(self) -> tuple[str, ...]:
         """The main model followed by the compared ones."""
         return (self.model, *self.compare)
+
+    def section(self, name: str, default: Any = None) -> Any:
+        """The parsed section ``name`` (``default`` when the file has none).
+
+        Raises
+        ------
+        ConfigError
+            The section is malformed.
+        """
+        if name not in self.sections and name in self.raw:
+            self.sections[name] = _parse_section(self.raw[name], name)
+        return self.sections.get(name, default)
 
     def has_prior(self, key: str) -> bool:
         """Whether the file gave ``key`` (a config name such as ``"t_b"``) a value or prior."""
@@ -167,7 +193,7 @@ def read_toml(path: Path, what: str, prefix: str = "") -> dict[str, Any]:
 def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
     """Validate an already-parsed TOML document (see :func:`load_config`)."""
     raw = dict(raw)
-    check_keys(raw, (*_TOP_LEVEL, *SECTION_PARSERS), "")
+    check_keys(raw, (*_TOP_LEVEL, *SECTIONS), "")
     model = string(raw.get("model", "pendulum"), "model", MODELS)
     compare = _parse_compare(raw.get("compare", []), model)
     gravity = float(number(raw.get("gravity_m_s2", STANDARD_GRAVITY), "gravity_m_s2",
@@ -181,8 +207,8 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
     priors = _parse_priors(table(raw.get("priors", {}), "priors"), models)
     if stick is not None and all(k in priors for k in ("pivot", "height")):
         _check_geometry(stick, priors)
-    sections = {name: _section_parser(name)(table(raw[name], name), name)
-                for name in SECTION_PARSERS if name in raw}
+    sections = {name: _parse_section(raw[name], name)
+                for name in SECTIONS if name in raw and name in _SECTION_PARSERS}
     return Config(model=model, compare=compare, priors=priors, stick=stick, gravity=gravity,
                   sections=sections, raw=raw, path=path)
 
@@ -214,7 +240,7 @@ def _parse_stick(section: dict[str, Any]) -> StickSpec:
     return StickSpec(shape=shape, **dims)
 
 
-def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str, Prior]:
+def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str, Distribution]:
     check_keys(section, PARAMETERS, "priors")
     priors = {PARAMETERS[key].name: parse_prior(value, PARAMETERS[key], f"priors.{key}")
               for key, value in section.items()}
@@ -230,7 +256,7 @@ def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str,
     return priors
 
 
-def _check_geometry(stick: StickSpec, priors: dict[str, Prior]) -> None:
+def _check_geometry(stick: StickSpec, priors: dict[str, Distribution]) -> None:
     """The nominal set-up must be able to drop and bounce (checked at the priors' medians)."""
     geometry = stick.nominal()
     pivot, height = priors["pivot"].median(), priors["height"].median()
@@ -253,8 +279,10 @@ def _check_geometry(stick: StickSpec, priors: dict[str, Prior]) -> None:
                           "the stick would start on the drumhead")
 
 
-def _section_parser(name: str) -> Callable[[dict[str, Any], str], Any]:
-    module, _, function = SECTION_PARSERS[name].partition(":")
-    return getattr(importlib.import_module(module), function)
+def _parse_section(value: Any, name: str) -> Any:
+    if name not in _SECTION_PARSERS:
+        raise LookupError(f"no parser registered for the config section [{name}]: import the "
+                          "stage that reads it first")
+    return _SECTION_PARSERS[name](table(value, name), name)
 
 

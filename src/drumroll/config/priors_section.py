@@ -6,15 +6,15 @@ import math
 from typing import Any
 
 from drumroll.config.validate import check_keys, number, string, table
+from drumroll.distributions import FAMILIES, Distribution, Fixed, Truncated
 from drumroll.errors import ConfigError
-from drumroll.inference.priors import FAMILIES, Fixed, Prior, Truncated
 from drumroll.quantities import Quantity
 
 #: Families whose own parameters bound them; their range must lie inside the physical range.
 _BOUNDED = ("uniform", "loguniform", "beta")
 
 
-def parse_prior(value: Any, spec: Quantity, key: str) -> Prior:
+def parse_prior(value: Any, spec: Quantity, key: str) -> Distribution:
     """The prior written at ``key`` for the parameter ``spec``, converted to SI units.
 
     Parameters
@@ -29,8 +29,8 @@ def parse_prior(value: Any, spec: Quantity, key: str) -> Prior:
 
     Returns
     -------
-    Prior
-        A :class:`~drumroll.inference.priors.Fixed` value or a distribution truncated to the
+    Distribution
+        A :class:`~drumroll.distributions.Fixed` value or a distribution truncated to the
         physical range, in SI units.
     """
     unit = f" {spec.unit}" if spec.unit else ""

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from drumroll import __version__
+from drumroll._version import __version__
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import Chain

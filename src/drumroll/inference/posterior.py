@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll.config import Config
+from drumroll.distributions import Distribution, Fixed, Uniform
 from drumroll.inference.likelihood import (
     T0_WINDOW_S,
     OnsetData,
@@ -18,7 +19,6 @@ from drumroll.inference.likelihood import (
     student_t,
     student_t_one,
 )
-from drumroll.inference.priors import Fixed, Prior, Uniform
 from drumroll.inference.space import ParameterSpace
 
 NOISE_MODELS = ("gaussian", "student-t")
@@ -51,9 +51,9 @@ class LogPosterior:
 
     @classmethod
     def build(cls, config: Config, model: str, data: OnsetData, noise: str = "gaussian",
-              nu: Prior | None = None) -> LogPosterior:
+              nu: Distribution | None = None) -> LogPosterior:
         """The posterior of ``model``; Student-t noise adds ``t0`` and ``nu`` (default ν = 4)."""
-        extra: dict[str, Prior] = {}
+        extra: dict[str, Distribution] = {}
         if noise == "student-t":
             first = float(data.times[0])
             extra = {"t0": Uniform(low=first - 0.5 * T0_WINDOW_S, high=first + 0.5 * T0_WINDOW_S),

@@ -22,7 +22,7 @@ from drumroll.quantities import DERIVED
 
 @dataclass(frozen=True)
 class Prediction:
-    """Prior-predictive draws of one model.
+    """Distribution-predictive draws of one model.
 
     Attributes
     ----------

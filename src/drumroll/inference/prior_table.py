@@ -1,9 +1,9 @@
 """Several independent priors evaluated together: the sampler's vectorised prior.
 
-:class:`PriorTable` turns a tuple of :class:`~drumroll.inference.priors.Prior` objects (one per
+:class:`PriorTable` turns a tuple of :class:`~drumroll.distributions.Distribution` objects (one per
 sampled column) into one call per distribution family, for the log density and the unit-cube
-transform: each family's own kernels (:meth:`~drumroll.inference.priors.Truncated.density`,
-:meth:`~drumroll.inference.priors.Truncated.quantile`) evaluated on all its columns at once,
+transform: each family's own kernels (:meth:`~drumroll.distributions.Truncated.density`,
+:meth:`~drumroll.distributions.Truncated.quantile`) evaluated on all its columns at once,
 with their parameters as vectors. No formula is written here, so the table gives exactly what
 the priors' own methods give.
 """
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from drumroll.inference.priors import Prior, Truncated
+from drumroll.distributions import Distribution, Truncated
 
 
 class _Family:
@@ -34,16 +34,17 @@ class PriorTable:
     """The log density and quantile functions of several independent priors, one per column.
 
     :meth:`ParameterSpace.log_prior` calls it once per sampler step, so instead of one
-    :meth:`Prior.logpdf` per column it evaluates every column of a family at once: the support
-    check is one comparison against vectors of bounds, each family one call of its density.
+    :meth:`Distribution.logpdf` per column it evaluates every column of a family at once: the
+    support check is one comparison against vectors of bounds, each family one call of its
+    density.
     Fixed values and priors that are no truncated family fall back to their own methods.
     """
 
-    def __init__(self, priors: tuple[Prior, ...]) -> None:
+    def __init__(self, priors: tuple[Distribution, ...]) -> None:
         self.lower = np.array([p.support[0] for p in priors], float)
         self.upper = np.array([p.support[1] for p in priors], float)
         by_kind: dict[type, list[tuple[int, Truncated]]] = {}
-        self.other: list[tuple[int, Prior]] = []
+        self.other: list[tuple[int, Distribution]] = []
         for i, p in enumerate(priors):
             if isinstance(p, Truncated):
                 by_kind.setdefault(type(p), []).append((i, p))

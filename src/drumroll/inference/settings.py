@@ -28,11 +28,12 @@ import os
 from dataclasses import dataclass, field
 from typing import Any
 
+from drumroll.config.loader import Config, register_section
 from drumroll.config.priors_section import parse_prior
 from drumroll.config.validate import boolean, check_keys, number, string
+from drumroll.distributions import Distribution, Fixed
 from drumroll.errors import ConfigError
 from drumroll.inference.posterior import NOISE_MODELS
-from drumroll.inference.priors import Fixed, Prior
 from drumroll.inference.sampling import SamplerSettings
 from drumroll.quantities import QUANTITIES
 
@@ -46,7 +47,7 @@ class EstimateSettings:
     live_points: int = 200
     workers: int = field(default_factory=lambda: os.cpu_count() or 1)
     noise: str = "gaussian"
-    nu: Prior = field(default_factory=lambda: Fixed(4.0))
+    nu: Distribution = field(default_factory=lambda: Fixed(4.0))
     hdi_prob: float = 0.9
 
 
@@ -123,9 +124,15 @@ def parse_report(section: dict[str, Any], where: str) -> dict[str, Any]:
     return out
 
 
-def estimate_settings(sections: dict[str, dict[str, Any]]) -> EstimateSettings:
-    """Combine the parsed sections into :class:`EstimateSettings` (defaults elsewhere)."""
-    sampler = dict(sections.get("sampler", {}))
+def estimate_settings(config: Config) -> EstimateSettings:
+    """The config's ``[sampler]``, ``[likelihood]`` and ``[report]`` sections as
+    :class:`EstimateSettings` (what a section leaves out takes its default)."""
+    sampler = dict(config.section("sampler", {}))
     top = {k: sampler.pop(k) for k in ("evidence", "live_points", "workers") if k in sampler}
     return EstimateSettings(sampler=SamplerSettings(**sampler), **top,
-                            **sections.get("likelihood", {}), **sections.get("report", {}))
+                            **config.section("likelihood", {}), **config.section("report", {}))
+
+
+register_section("sampler", parse_sampler)
+register_section("likelihood", parse_likelihood)
+register_section("report", parse_report)

@@ -13,14 +13,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll.config import Config
+from drumroll.distributions import Distribution, Fixed, LogUniform
 from drumroll.inference.prior_table import PriorTable
-from drumroll.inference.priors import Fixed, LogUniform, Prior
 from drumroll.physics import Bounces, StickGeometry
 from drumroll.physics.models import forward_model
 from drumroll.quantities import STICK_DIMENSIONS
 
-#: Prior of the onset jitter when the config gives none (SI: 0.01 to 10 ms, scale-free).
-DEFAULT_JITTER_PRIOR: Prior = LogUniform(low=1e-5, high=1e-2)
+#: Distribution of the onset jitter when the config gives none (SI: 0.01 to 10 ms, scale-free).
+DEFAULT_JITTER_PRIOR: Distribution = LogUniform(low=1e-5, high=1e-2)
 
 #: Stick dimensions: the internal name under which an uncertain one is sampled → its field.
 STICK_PARAMETERS = {q.name: q.field for q in STICK_DIMENSIONS.values()}
@@ -37,7 +37,7 @@ class ParameterSpace:
     names
         Internal names of the sampled parameters, in column order.
     priors
-        Prior of every parameter (sampled and fixed), by internal name.
+        Distribution of every parameter (sampled and fixed), by internal name.
     config
         The config the space was built from (stick shape, gravity).
     extra
@@ -47,16 +47,16 @@ class ParameterSpace:
 
     model: str
     names: tuple[str, ...]
-    priors: dict[str, Prior]
+    priors: dict[str, Distribution]
     config: Config
     extra: tuple[str, ...] = ()
 
     @classmethod
-    def build(cls, config: Config, model: str, extra_priors: dict[str, Prior] | None = None
+    def build(cls, config: Config, model: str, extra_priors: dict[str, Distribution] | None = None
               ) -> ParameterSpace:
         """The space of ``model``: its physical parameters, the jitter, and ``extra_priors``."""
         forward = forward_model(model)
-        priors: dict[str, Prior] = {name: config.priors[name] for name in forward.parameters}
+        priors: dict[str, Distribution] = {name: config.priors[name] for name in forward.parameters}
         priors["jitter"] = config.priors.get("jitter", DEFAULT_JITTER_PRIOR)
         if forward.needs_stick and config.stick is not None:
             for name, field in STICK_PARAMETERS.items():
@@ -103,7 +103,7 @@ class ParameterSpace:
         return self._table.log_pdf_one(np.asarray(x, float).tolist())
 
     def log_prior_by_column(self, x: NDArray) -> NDArray:
-        """The same sum, one :meth:`Prior.logpdf` per column (the reference for tests)."""
+        """The same sum, one :meth:`Distribution.logpdf` per column (the reference for tests)."""
         x = np.atleast_2d(x)
         total = np.zeros(x.shape[0])
         for i, name in enumerate(self.names):
@@ -115,7 +115,7 @@ class ParameterSpace:
         return self._table.ppf(u)
 
     def prior_transform_by_column(self, u: NDArray) -> NDArray:
-        """The same map, one :meth:`Prior.ppf` per column (the reference for tests)."""
+        """The same map, one :meth:`Distribution.ppf` per column (the reference for tests)."""
         u = np.asarray(u, float)
         return np.stack([self.priors[n].ppf(u[..., i]) for i, n in enumerate(self.names)],
                         axis=-1)

@@ -15,16 +15,18 @@ the flights put the next bounce, numbering on past unheard ones (:mod:`.follow`,
 :mod:`.prediction`), every onset timed again with the roll's law as its prior
 (:mod:`.sequence`) and against its loudest impact's sound (:mod:`.envelope`), and the first
 impact timed as if it had landed in the ring the next ones land in (:mod:`.start`).
-:func:`read_onsets` reads onset files back (:mod:`.table`).
+:func:`read_onsets` reads onset files back, in any of :data:`ONSET_FORMATS` (:mod:`.formats`).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from drumroll.onsets.table import COLUMNS, OnsetTable, read_onsets
+from drumroll.onsets.formats import ONSET_FILE_SUFFIXES, ONSET_FORMATS, read_onsets
+from drumroll.onsets.table import COLUMNS, OnsetTable
 
-__all__ = ["COLUMNS", "OnsetTable", "detect", "read_onsets"]
+__all__ = ["COLUMNS", "ONSET_FILE_SUFFIXES", "ONSET_FORMATS", "OnsetTable", "detect",
+           "read_onsets"]
 
 
 def __getattr__(name: str) -> Any:

@@ -25,6 +25,7 @@ from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
+from drumroll.onsets import ONSET_FILE_SUFFIXES
 from drumroll.reporting.figures import DRAW_SECONDS, FIGURES, FigureInputs, figure_files
 from drumroll.reporting.posterior_file import load_posteriors, save_posteriors
 from drumroll.reporting.report import write_report
@@ -93,7 +94,7 @@ def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
 def figure_inputs(result: Any, truths: dict[str, float] | None = None) -> FigureInputs:
     """What the figures of ``result`` (a :class:`drumroll.pipeline.Result`) are given."""
     audio = result.source if result.source is not None and result.source.suffix.lower() \
-        not in fileio.ONSET_FILE_SUFFIXES else None
+        not in ONSET_FILE_SUFFIXES else None
     return FigureInputs(idatas=result.idatas, summary=result.summary, truths=truths,
                         audio=audio, onsets=result.onsets if audio is not None else None)
 

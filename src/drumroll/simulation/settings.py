@@ -65,6 +65,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from drumroll.config.loader import register_section
 from drumroll.config.validate import boolean, check_keys, join, number, string, table, type_name
 from drumroll.errors import AudioError, ConfigError, DrumrollWarning
 from drumroll.physics.models import GEOMETRIC_MODELS
@@ -547,3 +548,6 @@ def true_impacts(settings: SimulateSettings, stick: Any, gravity: float,
         "physics": {key: q.to_user(float(np.ravel(getattr(bounces, q.bounces))[0]))
                     for key, q in DERIVED.items()},
     }
+
+
+register_section("simulate", parse_simulate)

@@ -22,7 +22,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
-from drumroll import __version__, fileio
+from drumroll import fileio
+from drumroll._version import __version__
 from drumroll.errors import DrumrollError
 from drumroll.inference.results import ParameterSummary, Record, Summary
 from drumroll.table.runs import Run, RunsFile, validate_estimation

@@ -10,13 +10,14 @@ import csv
 import io
 import json
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from drumroll.reporting.numbers import format_value_error
 from drumroll.table.execute import Estimate, TableResult
 from drumroll.table.runs import vary_spec, vary_value
 
-FORMATS = ("markdown", "csv", "latex", "json")
 #: Table columns after the label and the varied quantity: key → (plain header, LaTeX header).
 COLUMNS: dict[str, tuple[str, str]] = {
     "computed_t_b": ("computed t_B (s)", r"computed $t_B$ (\si{s})"),
@@ -217,7 +218,31 @@ def to_json(result: TableResult) -> str:
     return json.dumps(document, indent=2) + "\n"
 
 
+@dataclass(frozen=True)
+class TableFormat:
+    """One output format of the table: its name, the file suffixes that choose it, and its
+    writer (the table as the file's text)."""
+
+    name: str
+    suffixes: tuple[str, ...]
+    write: Callable[[TableResult], str]
+
+
+#: The table's formats, the default first.
+FORMATS: dict[str, TableFormat] = {f.name: f for f in (
+    TableFormat("markdown", (".md", ".markdown"), to_markdown),
+    TableFormat("csv", (".csv",), to_csv),
+    TableFormat("latex", (".tex",), to_latex),
+    TableFormat("json", (".json",), to_json),
+)}
+
+
+def format_for(suffix: str) -> str:
+    """The name of the format a file suffix chooses (the default, Markdown, for others)."""
+    return next((name for name, f in FORMATS.items() if suffix.lower() in f.suffixes),
+                next(iter(FORMATS)))
+
+
 def render(result: TableResult, fmt: str) -> str:
-    """The table in ``fmt`` (one of :data:`FORMATS`)."""
-    return {"markdown": to_markdown, "csv": to_csv, "latex": to_latex, "json": to_json}[fmt](
-        result)
+    """The table in the format named ``fmt`` (one of :data:`FORMATS`)."""
+    return FORMATS[fmt].write(result)

@@ -179,7 +179,7 @@ def fit_joint(runs: RunsFile, rows: list[RunRow]) -> dict[str, Any]:
     parts, settings = [], None
     for run, row in zip(runs.runs, rows, strict=True):
         config = validate_estimation(run)
-        own = estimate_settings(config.sections)
+        own = estimate_settings(config)
         settings = settings or own
         onsets = row.summary.onsets  # the onsets the run's own fit used
         data = OnsetData.from_arrays([o.time_s for o in onsets], [o.sigma_s for o in onsets],

@@ -202,9 +202,8 @@ def _parse_share(value: Any) -> tuple[str, ...]:
 def _read_config(folder: Path, value: Any, key: str) -> dict[str, Any]:
     """The raw TOML of a config named at ``key`` (sections estimation never reads dropped).
 
-    Read here rather than with :func:`~drumroll.config.load_config`, which would also parse
-    the ``[simulate]`` section (and import the simulator) for nothing; the rest is validated
-    by :func:`_parse_run` and :func:`validate_estimation`.
+    The sections estimation never reads are dropped; the physics is validated here, the
+    estimation sections by :func:`validate_estimation`.
     """
     name = string(value, key)
     path = (folder / name).resolve()
@@ -212,15 +211,10 @@ def _read_config(folder: Path, value: Any, key: str) -> dict[str, Any]:
     for section in _IGNORED_SECTIONS:
         raw.pop(section, None)
     try:
-        parse_config(_physics_only(raw))
+        parse_config(raw)
     except ConfigError as exc:
         raise ConfigError(f"{key}: {path}: {exc}") from None
     return raw
-
-
-def _physics_only(raw: Mapping[str, Any]) -> dict[str, Any]:
-    """``raw`` without the estimation sections (whose parsers import the samplers)."""
-    return {k: v for k, v in raw.items() if k not in ESTIMATION_SECTIONS}
 
 
 def validate_estimation(run: Run) -> Config:
@@ -232,8 +226,12 @@ def validate_estimation(run: Run) -> Config:
     ConfigError
         One line naming the run and the key.
     """
+    from drumroll.inference.settings import estimate_settings
+
     try:
-        return parse_config(run.raw)
+        config = parse_config(run.raw)
+        estimate_settings(config)
+        return config
     except ConfigError as exc:
         raise ConfigError(f"run {run.label!r}: {exc}") from None
 
@@ -288,7 +286,7 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
         raw.pop(section, None)
     raw.setdefault("sampler", {})["workers"] = 1  # the table's executor runs runs side by side
     try:
-        config = parse_config(_physics_only(raw))
+        config = parse_config(raw)
         for section in ESTIMATION_SECTIONS:
             if section in raw:
                 table(raw[section], section)

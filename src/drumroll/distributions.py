@@ -1,11 +1,14 @@
-"""Prior distributions: a number fixes a parameter, a table gives a distribution.
+"""The prior families: a number fixes a parameter, a table gives a distribution.
+
+One base module, below both the config (which parses ``[priors]`` into these) and inference
+(which evaluates them), so neither imports the other.
 
 Every distribution is truncated to an interval (the parameter's physical range intersected
 with the family's own support) and offers what the samplers need, vectorised and built on
-``scipy.special`` ufuncs so the hot path stays cheap: :meth:`Prior.logpdf` (emcee),
-:meth:`Prior.ppf` (the unit-cube transform of nested sampling) and :meth:`Prior.sample`
-(Monte Carlo propagation, starting points). :meth:`Prior.scaled` converts units
-(millimetres to metres) at the config boundary.
+``scipy.special`` ufuncs so the hot path stays cheap: :meth:`Distribution.logpdf` (emcee),
+:meth:`Distribution.ppf` (the unit-cube transform of nested sampling) and
+:meth:`Distribution.sample` (Monte Carlo propagation, starting points).
+:meth:`Distribution.scaled` converts units (millimetres to metres) at the config boundary.
 
 Each family's density, CDF and quantile function are written once, as static kernels that
 take the family's parameters as arguments (:attr:`Truncated.params` names them): a prior
@@ -26,8 +29,8 @@ from scipy import special
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 
 
-class Prior(ABC):
-    """A one-dimensional prior on a parameter."""
+class Distribution(ABC):
+    """A one-dimensional prior on a parameter (a fixed value or a truncated family)."""
 
     #: True for a fixed value: the parameter is not sampled.
     is_fixed: bool = False
@@ -41,7 +44,7 @@ class Prior(ABC):
         """Quantile function: maps uniform ``u`` in [0, 1] onto the prior."""
 
     @abstractmethod
-    def scaled(self, factor: float) -> Prior:
+    def scaled(self, factor: float) -> Distribution:
         """The distribution of ``factor × X`` (``factor > 0``): a change of units."""
 
     @abstractmethod
@@ -63,7 +66,7 @@ class Prior(ABC):
 
 
 @dataclass(frozen=True)
-class Fixed(Prior):
+class Fixed(Distribution):
     """A parameter held at ``value``."""
 
     value: float
@@ -87,7 +90,7 @@ class Fixed(Prior):
 
 
 @dataclass(frozen=True)
-class Truncated(Prior):
+class Truncated(Distribution):
     """A continuous family truncated to ``[lower, upper]``.
 
     Subclasses give the family's log density, CDF and quantile function as static kernels of

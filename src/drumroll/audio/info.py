@@ -1,0 +1,59 @@
+"""What a recording holds (:class:`AudioInfo`): both readers, soundfile's and FFmpeg's, give
+one, so it lives below both."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class AudioInfo:
+    """What a recording holds.
+
+    Attributes
+    ----------
+    path
+        The file.
+    sample_rate
+        Samples per second per channel.
+    frames
+        Samples per channel (as declared by a soundfile header, where a truncated file may
+        hold fewer; exact for a file FFmpeg decodes, which is decoded whole).
+    channels
+        Number of channels (they are averaged to mono when read).
+    format, subtype
+        soundfile's names for the container and the sample encoding; for a file FFmpeg
+        decodes, the container's short name and the decoder's sample format (``FLTP``,
+        ``S16``, ``S32P``, ...).
+    container, codec
+        Short lower-case names: ``wav``/``pcm_16``, ``ogg``/``vorbis``, ``m4a``/``aac``,
+        ``mp4``/``aac``, ``3gp``/``amrnb``, ``webm``/``opus``, ...
+    stream
+        Which audio stream of the file (0-based among its audio streams).
+    bit_rate
+        Bits per second of a lossy codec's stream (what was stored; from the file's size for
+        soundfile's formats); None for lossless audio.
+    lossless
+        Whether the codec gives back exactly the samples it was given.
+    decoder
+        ``"soundfile"`` or ``"ffmpeg"``.
+    """
+
+    path: Path
+    sample_rate: int
+    frames: int
+    channels: int
+    format: str
+    subtype: str
+    container: str = ""
+    codec: str = ""
+    stream: int = 0
+    bit_rate: int | None = None
+    lossless: bool = True
+    decoder: str = "soundfile"
+
+    @property
+    def duration_s(self) -> float:
+        """Length in seconds."""
+        return self.frames / self.sample_rate

@@ -1,0 +1,212 @@
+"""The onset file formats, each registered once with its suffixes, how its first line is
+recognised, its reader and its writer (:data:`ONSET_FORMATS`).
+
+* ``csv``: our CSV, header ``time_s,amplitude,snr_db,sigma_s,interval_s,bounce,roll`` (a
+  contract other tools read: columns are only ever appended, never reordered). A CSV without
+  ``bounce`` and ``roll`` (as written before they existed) is one roll numbered 0, 1, 2, ….
+* ``labels``: an Audacity label track (``start<TAB>end<TAB>label``). Labels named ``hit n``
+  (what :meth:`~drumroll.onsets.table.OnsetTable.to_labels` writes) carry bounce n − 1, and
+  ``roll m hit n`` roll m − 1 as well (labels count from 1, as people do); when any label is
+  named otherwise, the labels are numbered in time order.
+* ``text``: one time per line, seconds; one roll numbered 0, 1, 2, …
+
+so that hand-made and third-party onset lists can be fitted too.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from drumroll.errors import DrumrollError
+from drumroll.onsets.table import (
+    NUMBER_COLUMNS,
+    OnsetTable,
+    count_within,
+    numbering_problem,
+)
+
+_LABEL = re.compile(r"^(?:roll\s+(\d+)\s+)?hit\s+(\d+)$", re.IGNORECASE)
+
+#: A reader: the file's path (for messages) and its numbered, non-empty, non-comment lines.
+Reader = Callable[[Path, list[tuple[int, str]]], OnsetTable]
+
+
+@dataclass(frozen=True)
+class OnsetFormat:
+    """One onset file format.
+
+    Attributes
+    ----------
+    name
+        Its name (``csv``, ``labels``, ``text``).
+    description
+        What it is, in a few words.
+    suffixes
+        File suffixes that name an onset file of this format (lower case, with the dot).
+    recognises
+        Whether a file whose first content line is the argument is in this format.
+    read
+        Its reader.
+    write
+        Its writer: an onset table as the file's text.
+    """
+
+    name: str
+    description: str
+    suffixes: tuple[str, ...]
+    recognises: Callable[[str], bool]
+    read: Reader
+    write: Callable[[OnsetTable], str]
+
+
+def read_onsets(path: str | os.PathLike[str]) -> OnsetTable:
+    """Read onsets in any of :data:`ONSET_FORMATS`, recognised by the file's first line.
+
+    Missing columns are filled in: ``sigma_s`` = 0, ``amplitude`` and ``snr_db`` NaN,
+    ``bounce`` 0, 1, 2, … within each roll and ``roll`` 0. The bounce and roll numbers are
+    checked (whole, non-negative, bounces increasing with time within a roll, rolls numbered
+    in time order).
+
+    Raises
+    ------
+    DrumrollError
+        Unreadable file, or a malformed line (the message gives its number).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DrumrollError(f"{path}: no such file")
+    if path.is_dir():
+        raise DrumrollError(f"{path}: is a directory, expected an onset file")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DrumrollError(f"{path}: cannot read as text ({exc})") from None
+    lines = [(n, ln.strip()) for n, ln in enumerate(text.splitlines(), 1)]
+    lines = [(n, ln) for n, ln in lines if ln and not ln.startswith("#")]
+    if not lines:
+        raise DrumrollError(f"{path}: holds no onsets")
+    fmt = next(f for f in ONSET_FORMATS.values() if f.recognises(lines[0][1]))
+    table = fmt.read(path, lines)
+    table.source = str(path)
+    if table.time_s.size and not np.isfinite(table.time_s).all():
+        raise DrumrollError(f"{path}: onset times must be finite numbers")
+    if np.any(np.diff(np.sort(table.time_s)) == 0):
+        raise DrumrollError(f"{path}: the same onset time appears twice")
+    return table
+
+
+def _number(path: Path, n: int, text: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise DrumrollError(f"{path}: line {n}: {what} {text.strip()!r} is not a number") \
+            from None
+
+
+def _whole(path: Path, n: int, text: str, what: str) -> int:
+    """A bounce or roll number of line ``n``: a non-negative whole number (``3`` or ``3.0``)."""
+    value = _number(path, n, text, what)
+    if not (math.isfinite(value) and value == round(value)):
+        raise DrumrollError(f"{path}: line {n}: {what} {text.strip()!r} is not a whole number")
+    if value < 0:
+        raise DrumrollError(f"{path}: line {n}: {what} {text.strip()} is negative (numbers "
+                            "count from 0)")
+    return int(value)
+
+
+def _numbered(path: Path, line_numbers: list[int], times: list[float], columns: dict
+              ) -> OnsetTable:
+    """The table of ``times`` with the numbering columns given (``bounce``, ``roll`` or
+    neither), after checking the numbers against each other; an error names the line."""
+    times_a = np.asarray(times, float)
+    bounce, roll = columns.get("bounce"), columns.get("roll")
+    if bounce is not None or roll is not None:
+        order = np.argsort(times_a, kind="stable")
+        roll_sorted = (np.zeros(order.size, np.int64) if roll is None
+                       else np.asarray(roll, np.int64)[order])
+        bounce_sorted = (count_within(roll_sorted) if bounce is None
+                         else np.asarray(bounce, np.int64)[order])
+        problem = numbering_problem(bounce_sorted, roll_sorted)
+        if problem is not None:
+            row, message = problem
+            raise DrumrollError(f"{path}: line {line_numbers[order[row]]}: {message}")
+    size = times_a.size
+    return OnsetTable(times_a, columns.get("amplitude", np.full(size, np.nan)),
+                      columns.get("snr_db", np.full(size, np.nan)),
+                      columns.get("sigma_s", np.zeros(size)), bounce=bounce, roll=roll)
+
+
+def _read_csv(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
+    header = [h.strip() for h in lines[0][1].split(",")]
+    missing = [c for c in ("time_s",) if c not in header]
+    if missing:
+        raise DrumrollError(f"{path}: line {lines[0][0]}: header lacks column time_s")
+    cols: dict[str, list[float]] = {c: [] for c in header}
+    for n, ln in lines[1:]:
+        parts = ln.split(",")
+        if len(parts) != len(header):
+            raise DrumrollError(f"{path}: line {n}: expected {len(header)} comma-separated "
+                                f"values, found {len(parts)}")
+        for c, v in zip(header, parts, strict=True):
+            cols[c].append(_whole(path, n, v, c) if c in NUMBER_COLUMNS
+                           else _number(path, n, v, c))
+    given = {c: np.asarray(cols[c], np.int64 if c in NUMBER_COLUMNS else float)
+             for c in ("amplitude", "snr_db", "sigma_s", *NUMBER_COLUMNS) if c in cols}
+    return _numbered(path, [n for n, _ in lines[1:]], cols["time_s"], given)
+
+
+def _read_labels(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
+    times, names, line_numbers = [], [], []
+    for n, ln in lines:
+        parts = ln.split("\t")
+        if parts[0] == "\\":  # Audacity's spectral-selection continuation line
+            continue
+        if len(parts) < 2:
+            raise DrumrollError(f"{path}: line {n}: expected start<TAB>end<TAB>label")
+        times.append(_number(path, n, parts[0], "start time"))
+        _number(path, n, parts[1], "end time")
+        names.append(parts[2].strip() if len(parts) > 2 else "")
+        line_numbers.append(n)
+    matches = [_LABEL.match(name) for name in names]
+    columns: dict[str, np.ndarray] = {}
+    if matches and all(matches):  # every label carries its numbers: keep them
+        for n, m in zip(line_numbers, matches, strict=True):
+            if int(m.group(2)) < 1 or (m.group(1) is not None and int(m.group(1)) < 1):
+                raise DrumrollError(f"{path}: line {n}: label {m.group(0)!r}: hits and rolls "
+                                    "are counted from 1 in labels")
+        columns["bounce"] = np.array([int(m.group(2)) - 1 for m in matches], np.int64)
+        columns["roll"] = np.array([int(m.group(1) or 1) - 1 for m in matches], np.int64)
+    return _numbered(path, line_numbers, times, columns)
+
+
+def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
+    times = []
+    for n, ln in lines:
+        if len(ln.split()) != 1:
+            raise DrumrollError(f"{path}: line {n}: expected one time per line, found "
+                                f"{ln[:40]!r}")
+        times.append(_number(path, n, ln, "time"))
+    return _numbered(path, [n for n, _ in lines], times, {})
+
+
+#: The formats, in the order their first lines are tried (plain text last: it takes any).
+ONSET_FORMATS: dict[str, OnsetFormat] = {f.name: f for f in (
+    OnsetFormat("csv", "drumroll's onset CSV", (".csv",),
+                lambda first: first.replace(" ", "").lower().startswith("time_s"),
+                _read_csv, OnsetTable.to_csv),
+    OnsetFormat("labels", "Audacity label track", (".tsv", ".lab", ".labels"),
+                lambda first: "\t" in first, _read_labels, OnsetTable.to_labels),
+    OnsetFormat("text", "one time per line", (".txt",), lambda first: True, _read_plain,
+                OnsetTable.to_text),
+)}
+
+#: Suffixes read as onset files rather than audio.
+ONSET_FILE_SUFFIXES: tuple[str, ...] = tuple(
+    suffix for fmt in ONSET_FORMATS.values() for suffix in fmt.suffixes)
