@@ -29,7 +29,7 @@ def one_recording() -> None:
     result = drumroll.estimate(DATA / "table2_h80.flac", config)
     for name in ("alpha", "t_b", "pivot_mm", "height_mm"):
         p = result.parameter(name)
-        print(f"{name:>10} = {format_value_error(p['mean'], p['sd'])}")
+        print(f"{name:>10} = {format_value_error(p.mean, p.sd)}")
     print(f"preferred model: {result.preferred or 'undecided'} ({len(result.onsets)} onsets)")
 
 
@@ -45,8 +45,8 @@ def small_table() -> None:
     }, path=Path(__file__).resolve())
     result = run_table(runs, progress=print)  # in parallel on every core, cached by content
     print(render(result, "markdown"))
-    soft, hard = (row["alpha"] for row in result.rows)
-    change = hard["value"] / soft["value"] - 1
+    soft, hard = (row.alpha for row in result.rows)
+    change = hard.value / soft.value - 1
     print(f"alpha rises by {change:.1%} from the soft to the hard drumhead (paper: 4 %)")
 
 

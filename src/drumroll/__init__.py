@@ -12,20 +12,49 @@ The data's path through the package:
     tables and figures;
 ``cli``
     the ``drumroll`` command.
+
+From Python, each command is a function (imported on first use)::
+
+    import drumroll
+
+    onsets = drumroll.detect("roll.wav")                    # drumroll onsets
+    result = drumroll.estimate("roll.wav", "roll.toml")     # drumroll estimate
+    fits = drumroll.load_posteriors("out/posterior.nc")     # its posterior.nc, by model
+    predictions = drumroll.predict("roll.toml")             # drumroll predict
+    recording = drumroll.simulate("roll.toml", seed=1)      # drumroll simulate
+    table = drumroll.run_table(drumroll.load_runs("runs.toml"))  # drumroll table
 """
 
 from __future__ import annotations
 
 from drumroll._version import __version__
 
-__all__ = ["__version__", "estimate"]
+#: The public functions, as the commands they mirror: name → (module, attribute). Each is
+#: imported on first use, so ``import drumroll`` stays instant and ``drumroll.predict`` does not
+#: wait for the samplers, nor ``drumroll.read_onsets`` for the detector.
+_API = {
+    "detect": ("drumroll.onsets.detector", "detect"),                # drumroll onsets
+    "read_onsets": ("drumroll.onsets.formats", "read_onsets"),
+    "estimate": ("drumroll.pipeline", "estimate"),                    # drumroll estimate
+    "load_posteriors": ("drumroll.reporting.posterior_file", "load_posteriors"),
+    "predict": ("drumroll.inference.prior_predictive", "predict"),    # drumroll predict
+    "simulate": ("drumroll.simulation.simulate", "simulate"),         # drumroll simulate
+    "load_runs": ("drumroll.table.runs", "load_runs"),                # drumroll table
+    "run_table": ("drumroll.table.execute", "run_table"),
+    "load_config": ("drumroll.config.loader", "load_config"),
+}
+
+__all__ = ["__version__", *_API]
 
 
 def __getattr__(name: str):
-    # ``drumroll.estimate`` is imported on first use: it pulls in emcee, dynesty and ArviZ,
-    # which commands such as ``drumroll predict`` do not need.
-    if name == "estimate":
-        from drumroll.pipeline import estimate
+    if name in _API:
+        import importlib
 
-        return estimate
+        module, attribute = _API[name]
+        return getattr(importlib.import_module(module), attribute)
     raise AttributeError(f"module 'drumroll' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_API})

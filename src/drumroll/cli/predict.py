@@ -8,7 +8,7 @@ import warnings
 from typing import TYPE_CHECKING
 
 from drumroll.cli.arguments import positive_int
-from drumroll.errors import DrumrollError, DrumrollWarning
+from drumroll.errors import DrumrollWarning
 from drumroll.quantities import DERIVED
 from drumroll.reporting.numbers import format_value_error
 
@@ -37,16 +37,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``predict``."""
     # The models and priors (scipy): only when predict runs, not for every command's --help.
-    from drumroll.config import load_config
-    from drumroll.inference.prior_predictive import predictable_models, propagate
+    from drumroll.inference.prior_predictive import predict
 
-    config = load_config(args.config)
-    models = predictable_models(config)
-    if not models:
-        raise DrumrollError(f"{args.config}: nothing to predict: give a [stick] section (for the "
-                            "pendulum models) or a prior for t_b (for the power law)")
-    predictions = [propagate(config, m, n_flights=args.flights, n_draws=args.draws,
-                             seed=args.seed) for m in models]
+    predictions = list(predict(args.config, n_flights=args.flights, n_draws=args.draws,
+                               seed=args.seed).values())
     for p in predictions:
         if p.invalid_reasons:
             reason = max(p.invalid_reasons, key=p.invalid_reasons.get)

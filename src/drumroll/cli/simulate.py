@@ -23,8 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import soundfile as sf
 
-from drumroll._version import __version__
-from drumroll.errors import ConfigError, DrumrollError, DrumrollWarning
+from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.fileio import check_writable, write_text, write_with
 
 if TYPE_CHECKING:
@@ -57,8 +56,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``simulate``."""
     # The simulator and the config's priors (scipy): imported only when it runs.
     from drumroll.config import load_config
-    from drumroll.simulation import render, render_hits
-    from drumroll.simulation.settings import load_recorded, true_impacts
+    from drumroll.simulation.simulate import simulate
 
     output = Path(args.output)
     container = CONTAINERS.get(output.suffix.lower())
@@ -70,57 +68,20 @@ def run(args: argparse.Namespace) -> int:
         raise DrumrollError(f"{truth_path}: the truth file cannot be the recording itself")
     config = load_config(args.config)
     settings: SimulateSettings | None = config.section("simulate")
-    if settings is None:
-        raise ConfigError(f"{args.config}: simulate: missing section (the true set-up and the "
-                          "recording to make)")
-    if config.stick is None:
-        raise ConfigError(f"{args.config}: stick: missing section (the simulation needs the "
-                          "stick's shape and size)")
-    try:
-        sources = load_recorded(settings, Path(args.config).parent)
-    except ConfigError as exc:
-        raise ConfigError(f"{args.config}: {exc}") from None
-    subtype = _subtype(container, settings, output)
+    if settings is not None:  # simulate() says what is missing otherwise
+        subtype = _subtype(container, settings, output)
     check_writable(output, overwrite=args.force)  # fail before the work, not after it
     check_writable(truth_path, overwrite=args.force)
     if args.seed is not None and args.seed < 0:
         raise DrumrollError(f"--seed: must not be negative, got {args.seed}")
-    seed = args.seed if args.seed is not None else (settings.seed or 0)
-
-    rng_roll, rng_sound = np.random.default_rng(seed).spawn(2)
-    stick = config.stick.nominal()
-    try:
-        roll = true_impacts(settings, stick, config.gravity, rng_roll)
-    except ConfigError as exc:
-        raise ConfigError(f"{args.config}: {exc}") from None
-    room = settings.room if sources.room is None else sources.room
-    if sources.bank is not None:
-        rendering = render_hits(roll["times_s"], roll["speeds_m_s"], bank=sources.bank,
-                                room=room, disturbances=settings.disturbances,
-                                channels=settings.channels, extra_hits=sources.extra_hits,
-                                rng=rng_sound, peak_dbfs=settings.peak_dbfs,
-                                clip_db=settings.clip_db)
-    else:
-        rendering = render(roll["times_s"], roll["speeds_m_s"],
-                           sample_rate=settings.sample_rate, drum=settings.drum, room=room,
-                           disturbances=settings.disturbances, channels=settings.channels,
-                           rng=rng_sound, peak_dbfs=settings.peak_dbfs,
-                           clip_db=settings.clip_db)
-    truth = {
-        "drumroll_version": __version__,
-        "seed": seed,
-        "config": str(args.config),
-        "recording": {"file": output.name, "container": container, "subtype": subtype},
-        **rendering.truth(),
-        "model_impact_times_s": [float(t) for t in roll["model_times_s"]
-                                 + rendering.lead_in_s],
-        "simulate": settings.describe(),
-        "stick": {"shape": stick.shape, "length_mm": float(stick.length) * 1e3,
-                  "tip_mm": float(stick.tip) * 1e3, "radius_mm": float(stick.radius) * 1e3},
-        "gravity_m_s2": config.gravity,
-        "physics": roll["physics"],
-    }
-    write_with(output, lambda tmp: sf.write(tmp, rendering.samples, settings.sample_rate,
+    simulated = simulate(config, seed=args.seed)
+    settings, rendering = simulated.settings, simulated.rendering
+    rest = dict(simulated.truth)
+    truth = {**{key: rest.pop(key) for key in ("drumroll_version", "seed")},
+             "config": str(args.config),
+             "recording": {"file": output.name, "container": container, "subtype": subtype},
+             **rest}
+    write_with(output, lambda tmp: sf.write(tmp, simulated.samples, simulated.sample_rate,
                                             subtype=subtype, format=container),
                overwrite=args.force)
     write_text(truth_path, json.dumps(truth, indent=1) + "\n", overwrite=args.force)

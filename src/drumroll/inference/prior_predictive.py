@@ -7,13 +7,14 @@ outputs is the computed value's uncertainty.
 
 from __future__ import annotations
 
+import os
 from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from drumroll.config import Config
+from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.physics import MODELS, REASONS, Bounces, bounce_sequence
 from drumroll.physics.models import forward_model, parameter_keys
@@ -120,3 +121,36 @@ def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_
                       ("alpha", "flights", "t_c", "t_b", "theta_c", "omega_c", "tip_speed_c",
                        "reason")})
     return Prediction(model=model, bounces=kept, n_draws=n_draws, invalid_reasons=dict(reasons))
+
+
+def predict(config: Config | str | os.PathLike[str], n_flights: int = 5,
+            n_draws: int = 20_000, seed: int | None = 0) -> dict[str, Prediction]:
+    """``drumroll predict`` as a function: every model the config can predict
+    (:func:`predictable_models`), propagated from the priors (:func:`propagate`).
+
+    Parameters
+    ----------
+    config
+        A config, or the path of its file.
+    n_flights, n_draws, seed
+        As for :func:`propagate`.
+
+    Returns
+    -------
+    dict
+        Model name → its :class:`Prediction`.
+
+    Raises
+    ------
+    DrumrollError
+        Nothing to predict (no stick, no power-law prior), or no draw makes a drumroll.
+    """
+    if not isinstance(config, Config):
+        config = load_config(config)
+    models = predictable_models(config)
+    if not models:
+        where = f"{config.path}: " if config.path else ""
+        raise DrumrollError(f"{where}nothing to predict: give a [stick] section (for the "
+                            "pendulum models) or a prior for t_b (for the power law)")
+    return {m: propagate(config, m, n_flights=n_flights, n_draws=n_draws, seed=seed)
+            for m in models}
