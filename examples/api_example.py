@@ -11,7 +11,7 @@ from pathlib import Path
 import drumroll
 from drumroll.config import parse_config
 from drumroll.reporting.numbers import format_value_error
-from drumroll.table import parse_runs, render, run_table
+from drumroll.table import format_table, parse_runs, run_table
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 
@@ -44,7 +44,7 @@ def small_table() -> None:
                  "config": str(DATA / "tension_hard.toml")}],
     }, path=Path(__file__).resolve())
     result = run_table(runs, progress=print)  # in parallel on every core, cached by content
-    print(render(result, "markdown"))
+    print(format_table(result, "markdown"))
     soft, hard = (row.alpha for row in result.rows)
     change = hard.value / soft.value - 1
     print(f"alpha rises by {change:.1%} from the soft to the hard drumhead (paper: 4 %)")

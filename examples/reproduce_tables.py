@@ -24,7 +24,7 @@ from pathlib import Path
 from drumroll.fileio import write_text
 from drumroll.reporting.figure5 import plot_figure5
 from drumroll.reporting.numbers import format_value_error
-from drumroll.table import load_runs, render, run_table
+from drumroll.table import format_table, load_runs, run_table
 from drumroll.table.plot import panels
 
 HERE = Path(__file__).resolve().parent
@@ -72,7 +72,7 @@ def main() -> None:
     for name in TABLES:
         runs = load_runs(HERE / f"{name}.toml")
         result = run_table(runs, workers=args.workers, progress=print)
-        text = render(result, "markdown") + f"\n{PAPER[name]}\n"
+        text = format_table(result, "markdown") + f"\n{PAPER[name]}\n"
         write_text(OUTPUT / f"{name}.md", text, overwrite=True)
         print(text)
         all_panels += panels(result)

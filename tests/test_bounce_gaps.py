@@ -399,7 +399,7 @@ def test_onset_figure_draws_each_roll_and_breaks_at_a_gap(two_roll_csv, tmp_path
 
 
 def test_a_tables_notes_carry_each_runs_notes(tmp_path):
-    from drumroll.table import load_runs, render
+    from drumroll.table import format_table, load_runs
     from drumroll.table.execute import TableResult
     from test_table import BASE, RUN_H80, fake_row, runs_text, write_onsets
 
@@ -409,5 +409,5 @@ def test_a_tables_notes_carry_each_runs_notes(tmp_path):
     note = "bounce 3 missing (inaudible or masked): fitted as gap"
     row = fake_row(0.9, 0.25, notes=(note,))
     result = TableResult(runs=load_runs(tmp_path / "runs.toml"), rows=[row])
-    assert f"Note (h80): {note}." in render(result, "markdown")
-    assert json.loads(render(result, "json"))["rows"][0]["notes"] == [note]
+    assert f"Note (h80): {note}." in format_table(result, "markdown")
+    assert json.loads(format_table(result, "json"))["rows"][0]["notes"] == [note]

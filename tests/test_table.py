@@ -19,7 +19,7 @@ from drumroll.inference.results import (
     ParameterSummary,
     Summary,
 )
-from drumroll.table import FORMATS, load_runs, render
+from drumroll.table import FORMATS, format_table, load_runs
 from drumroll.table.execute import Estimate, RunRow, TableResult, run_key
 from drumroll.table.formatting import format_for
 from drumroll.table.plot import plot_table
@@ -183,7 +183,7 @@ def fake_result(folder) -> TableResult:
 
 
 def test_markdown_is_rounded_like_the_paper(fake_result):
-    text = render(fake_result, "markdown")
+    text = format_table(fake_result, "markdown")
     assert "| h80 | 131 ± 2 | 0.251 ± 0.006 | 0.253 ± 0.006 | 0.210 ± 0.009 | 0.860 ± 0.010 |" \
         in text
     assert text.startswith("**Table 1**")
@@ -191,12 +191,12 @@ def test_markdown_is_rounded_like_the_paper(fake_result):
 
 
 def test_csv_latex_json(fake_result):
-    rows = list(csv.DictReader(io.StringIO(render(fake_result, "csv"))))
+    rows = list(csv.DictReader(io.StringIO(format_table(fake_result, "csv"))))
     assert rows[0]["pivot_mm"] == "131" and rows[0]["pivot_mm_err"] == "2"
     assert rows[1]["alpha"] == "0.880" and rows[1]["alpha_err"] == "0.010"
-    latex = render(fake_result, "latex")
+    latex = format_table(fake_result, "latex")
     assert r"\toprule" in latex and r"\num{0.880 \pm 0.010}" in latex
-    document = json.loads(render(fake_result, "json"))
+    document = json.loads(format_table(fake_result, "json"))
     row = document["rows"][0]
     assert set(row) >= {"label", "vary", "computed_t_b", "fitted_t_b", "alpha", "preferred"}
     assert row["vary"]["value"] == 131 and row["vary"]["err"] == 2
@@ -212,7 +212,7 @@ def test_figure5_from_rows(fake_result, tmp_path):
 
 @pytest.mark.parametrize("fmt", list(FORMATS.values()), ids=list(FORMATS))
 def test_every_table_format_writes_every_run_and_is_chosen_by_its_suffixes(fmt, fake_result):
-    text = render(fake_result, fmt.name)
+    text = format_table(fake_result, fmt.name)
     assert "h80" in text and "0.86" in text and "0.88" in text
     for suffix in fmt.suffixes:
         assert format_for(suffix.upper()) == fmt.name

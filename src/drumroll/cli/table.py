@@ -80,7 +80,7 @@ def dask_executor(address: str) -> Iterator[Executor]:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``table``: validate everything, then estimate, then write."""
-    from drumroll.table import load_runs, render, run_table
+    from drumroll.table import format_table, load_runs, run_table
     from drumroll.table.formatting import format_for
 
     runs = load_runs(args.runs)
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
                             "runs"):
             result.joint = joint_table(runs, result, cache_dir=args.cache_dir,
                                        use_cache=not args.no_cache)
-    text = render(result, fmt)
+    text = format_table(result, fmt)
     if args.output is not None:
         write_text(args.output, text, overwrite=args.force)
         progress.say(f"table written to {args.output}")

@@ -243,6 +243,6 @@ def format_for(suffix: str) -> str:
                 next(iter(FORMATS)))
 
 
-def render(result: TableResult, fmt: str) -> str:
+def format_table(result: TableResult, fmt: str) -> str:
     """The table in the format named ``fmt`` (one of :data:`FORMATS`)."""
     return FORMATS[fmt].write(result)
