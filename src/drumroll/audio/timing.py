@@ -67,6 +67,16 @@ RATE_FLOORS: tuple[tuple[int, float, float], ...] = (
     (16_000, 0.13e-3, 0.11),
 )
 
+#: How far ahead of an impact each lossy codec may spread the quantisation noise of the
+#: transform block that holds it (pre-echo), in samples at the stream's rate: the support
+#: of the codec's shortest window, which it switches to at a transient. AAC: 256-sample
+#: short windows (ISO/IEC 14496-3); Vorbis: 256-sample short blocks (libvorbis's at 44.1
+#: and 48 kHz); MP3: 384-sample short blocks (12 samples in each of 32 subbands); Opus
+#: (CELT): 2.5 ms short MDCTs with 2.5 ms overlap, 240 samples at 48 kHz. AMR codes
+#: 5 ms subframes (40 samples at 8 kHz) by prediction, not by transform blocks.
+PRE_ECHO_SAMPLES = {"aac": 256, "vorbis": 256, "mp3": 384, "opus": 240, "amrnb": 40,
+                    "amrwb": 80}
+
 #: What each codec does, in the warning.
 _DOES = {"amrnb": "removes most of an impact's click", "amrwb": "removes much of an impact's "
          "click"}
@@ -117,3 +127,19 @@ def timing_floor(info: AudioInfo) -> TimingFloor | None:
         return TimingFloor(sd, f"{info.path}: {name}{bits}{khz} {does}: {timed}")
     return TimingFloor(sd, f"{info.path}: a sample rate of {info.sample_rate} Hz keeps little "
                            f"of an impact's click: {timed}")
+
+
+def pre_echo_s(info: AudioInfo) -> float:
+    """The longest stretch (seconds) by which a recording's codec may spread its noise ahead
+    of an impact (:data:`PRE_ECHO_SAMPLES`; the largest of them for a lossy codec not
+    listed); 0 for lossless audio.
+
+    Parameters
+    ----------
+    info
+        What :func:`drumroll.audio.probe` says of the file.
+    """
+    if info.lossless:
+        return 0.0
+    samples = PRE_ECHO_SAMPLES.get(info.codec, max(PRE_ECHO_SAMPLES.values()))
+    return samples / info.sample_rate

@@ -124,6 +124,9 @@ class CandidateStream:
         Half-width of the window whose median and MAD standardise the detection function.
     refine_pre_s, refine_post_s, refine_search_s
         Windows of the sample-accurate refinement (see :func:`~.refine.refine_onset`).
+    codec_block
+        For a lossy file, the stretch (samples) its codec may spread noise ahead of an
+        impact by (:func:`~.refine.out_of_codec_noise`); 0 for lossless audio.
 
     Notes
     -----
@@ -136,8 +139,9 @@ class CandidateStream:
     def __init__(self, sample_rate: int, params: OdfParams | None = None, *,
                  threshold: float = 5.0, stats_s: float = 1.0, refine_pre_s: float = 0.008,
                  refine_post_s: float = 0.002, refine_search_s: float = 0.002,
-                 refine_after_s: float = 0.002) -> None:
+                 refine_after_s: float = 0.002, codec_block: int = 0) -> None:
         self.sr = int(sample_rate)
+        self.codec_block = int(codec_block)
         self.params = params = params or OdfParams()
         self.threshold = float(threshold)
         self.hop = params.hop(self.sr)
@@ -248,22 +252,24 @@ class CandidateStream:
         r = refine_window(self.buf, self.buf0, guess, self.sr, self.wide_ba, self.settle,
                           pre=self.ref_pre + back - self.ref_search, post=self.ref_post,
                           search=back,
-                          search_after=self.ref_after, level=self.post * self.hop)
+                          search_after=self.ref_after, level=self.post * self.hop,
+                          codec_block=self.codec_block)
         return r.sample / self.sr, r.amplitude, r.snr_db, r.sigma_s, r.level
 
 
 def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
                   ba: tuple[np.ndarray, np.ndarray], settle: int, *, pre: int, post: int,
                   search: int, search_after: int | None = None, level: int = 0,
-                  prior: Prior | None = None) -> Refined:
+                  prior: Prior | None = None, codec_block: int = 0) -> Refined:
     """Refine an onset near absolute sample ``guess`` of raw samples ``buf`` (``buf[0]`` is
     absolute sample ``buf0``): the wide high-pass ``ba`` is run from rest ``settle`` samples
     before the refinement window. Returns the refined onset with an absolute ``sample`` and,
     if ``level`` > 0, the peak of the high-passed sound over ``level`` samples from it.
-    ``prior`` (optional) is in absolute samples."""
+    ``prior`` (optional) is in absolute samples; ``codec_block`` is the stretch a lossy
+    codec's noise may precede a sound by (:func:`~.refine.out_of_codec_noise`; 0: lossless)."""
     a = max(guess - pre - settle, 0)
     after = search if search_after is None else search_after
-    b = guess + max(post, after + level)
+    b = guess + max(post + codec_block, after + level)
     x = buf[max(a - buf0, 0): max(b - buf0, 0)]
     lead = max(buf0 - a, 0)
     if lead:  # before the buffer (only at the file's start): silence
@@ -273,7 +279,8 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
     y = signal.lfilter(ba[0], ba[1], x)
     r = refine_onset(y, guess - a, sample_rate, pre=pre, post=post, search=search,
                      search_after=search_after,
-                     prior=None if prior is None else prior.shifted(-a))
+                     prior=None if prior is None else prior.shifted(-a),
+                     codec_block=codec_block)
     peak = float(np.abs(y[r.sample: r.sample + level]).max()) if level > 0 else float("nan")
     return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s, peak,
                    r.raw_snr_db)

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from drumroll.audio.io import DEFAULT_BLOCK_FRAMES, AudioInfo, iter_blocks, probe, read_excerpt
-from drumroll.audio.timing import timing_floor
+from drumroll.audio.timing import pre_echo_s, timing_floor
 from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets.candidates import Candidates, CandidateStream
 from drumroll.onsets.channels import earliest_channel
@@ -45,6 +45,9 @@ class Context:
     track: TrackParams
     follow: FollowParams
     end_s: float
+    #: The stretch (samples) a lossy file's codec may spread noise ahead of an impact by
+    #: (:func:`~drumroll.audio.timing.pre_echo_s`); 0 for lossless audio.
+    codec_block: int = 0
 
 
 Stage = Callable[[Roll, Excerpt, Context], Roll]
@@ -216,7 +219,10 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
         def excerpt(start: int, stop: int, channel: int | None = None) -> np.ndarray:
             return read_excerpt(source, start, stop, channel, stream=which)
 
-    stream = CandidateStream(rate, odf, threshold=threshold)
+    # A lossy codec's noise may come before an impact by up to one transform window: the
+    # onsets are timed where the sound steps out of it (:mod:`.refine`).
+    codec_block = 0 if info is None else round(pre_echo_s(info) * rate)
+    stream = CandidateStream(rate, odf, threshold=threshold, codec_block=codec_block)
     for block in blocks:
         stream.feed(block)
     cands = stream.finish()
@@ -225,7 +231,7 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     channel = earliest_channel(cands, n_channels, rate, odf, excerpt)
     ctx = Context(tparams, FollowParams(ratio_jitter=tparams.ratio_jitter,
                                         min_interval_s=tparams.min_interval_s),
-                  stream.total / rate)
+                  stream.total / rate, codec_block)
     rolls = _rolls(cands, ctx, odf, name, rate,
                    lambda start, stop: excerpt(start, stop, channel))
     table = _table(rolls, cands, name, rate, all_candidates, channel)
@@ -325,7 +331,7 @@ def _excerpt_around(roll: Roll, ctx: Context, odf: OdfParams, rate: int,
     start = max(int((t[0] - _CONTEXT_S) * rate), 0)
     end_s = min(_predicted_end(roll), ctx.end_s)
     stop = min(int((end_s + _CONTEXT_S) * rate), int(ctx.end_s * rate))
-    return Excerpt(excerpt(start, stop), start, rate, odf)
+    return Excerpt(excerpt(start, stop), start, rate, odf, ctx.codec_block)
 
 
 def _table(rolls: list[Roll], c: Candidates, name: str, rate: int, all_candidates: bool,

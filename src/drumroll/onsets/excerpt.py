@@ -45,10 +45,15 @@ class Excerpt:
         Samples per second.
     odf
         Detection-function settings (the bands and the hop of the first pass).
+    codec_block
+        For a lossy file, the stretch (samples) its codec may spread noise ahead of an
+        impact by (:func:`~.refine.out_of_codec_noise`); 0 for lossless audio.
     """
 
-    def __init__(self, x: np.ndarray, start: int, sample_rate: int, odf: OdfParams) -> None:
+    def __init__(self, x: np.ndarray, start: int, sample_rate: int, odf: OdfParams,
+                 codec_block: int = 0) -> None:
         self.x, self.start, self.sr, self.odf = x, start, sample_rate, odf
+        self.codec_block = int(codec_block)
         self.hop = odf.hop(sample_rate)
         # Frames on the absolute grid of the first pass.
         self.skip = (-start) % self.hop
@@ -115,4 +120,4 @@ class Excerpt:
         :func:`~.candidates.refine_window`); the returned ``sample`` is absolute."""
         return refine_window(self.x, self.start, guess, self.sr, self.ba, self.settle,
                              pre=pre, post=post, search=search, search_after=search_after,
-                             prior=prior, level=level)
+                             prior=prior, level=level, codec_block=self.codec_block)
