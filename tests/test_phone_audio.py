@@ -116,12 +116,14 @@ def test_lossless_containers_give_the_wavs_onsets(folder, pingpong, wav_onsets, 
 # --- what phones and cameras write --------------------------------------------------------
 
 #: Per preset: (least fraction of the WAV's onsets found within 1 ms, as measured here).
-#: The issue asks for 95 %; the onset extractor (settled, not changed by this work) times a
-#: few of the loudest impacts at the start of the codec's pre-echo, 1-3 ms before the click
-#: (Opus at every bit rate: CELT's 2.5 ms window overlap; AAC up to 2 ms). Measured on the
-#: ping-pong: AAC 128 kb/s 46 of 55, Opus 64 kb/s 40 of 55 (benchmarks/onsets.py --phone-only
-#: gives the figures over the corpus too). The bounds below catch a regression.
-LOSSY = {"aac-128": 0.8, "mp4-video": 0.8, "mov-video": 0.8, "opus-64": 0.7}
+#: The issue asks for 95 %. A lossy file's onsets are timed where the sound steps out of the
+#: codec's pre-echo (:func:`drumroll.onsets.refine.out_of_codec_noise`), which brings most
+#: loud impacts back from 1-3 ms early; still lost or moved: the two loudest impacts whose
+#: pre-echo is as long as their own first stage, and the faint last bounces at the end of
+#: the roll, under the codec's noise. Measured on the ping-pong: AAC 128 kb/s 49 of 55,
+#: Opus 64 kb/s 48 of 55 (benchmarks/onsets.py --phone-only gives the figures over the
+#: corpus too). The bounds below catch a regression.
+LOSSY = {"aac-128": 0.85, "mp4-video": 0.85, "mov-video": 0.85, "opus-64": 0.85}
 
 
 @pytest.mark.parametrize("preset", list(LOSSY))
