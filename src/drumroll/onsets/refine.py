@@ -293,9 +293,8 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
     if order:
         ahead = whiten(ahead, ahead[: max(pre - search, 0)], order)
         ahead[:order] = 0.0  # no full predictor history yet
-    n_win = pre + post
-    x = ahead[:n_win]
-    raw = y[max(start, 0): guess + post]
+    x = ahead[: pre + post]
+    raw = y[max(start, 0): guess + post + codec_block]
     if lo_pad:
         raw = np.concatenate((np.zeros(lo_pad), raw))
     after = search if search_after is None else search_after
@@ -313,7 +312,9 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
             spread = float(np.hypot(spread, (out_of - noise_from) / np.sqrt(12.0)))
     # Timing precision is set by the whitened signal (what the split saw); the amplitude a
     # user reads is the click's own. What was there before is measured before the codec's
-    # noise, if any (``noise_from`` is ``k`` otherwise).
+    # noise, if any (``noise_from`` is ``k`` otherwise), and the sound after an onset moved
+    # out of it may reach past the window (into ``ahead``).
+    x = ahead
     before = x[order:noise_from] if noise_from > order + 1 else x[:noise_from]
     after = x[k: k + post]
     amplitude = float(np.abs(raw[k: k + post]).max()) if k < raw.size else 0.0
