@@ -1,16 +1,22 @@
 """The onset detector's scipy-free primitives against scipy itself (the reference: it stays a
-dependency of the inference)."""
+dependency of the inference), and the detector's path free of scipy."""
 
 import itertools
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import ndimage, optimize, signal, special
 
 from drumroll.onsets import dsp, numerics
-from drumroll.onsets.odf import OdfParams, band_edges
+from drumroll.onsets.odf import OdfParams, band_edges, band_filters, wide_filter
 from drumroll.stats import student_t_logpdf, student_t_logpdf_fixed
+
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 RATES = (8000, 11025, 22050, 44100, 48000, 96000, 192000)
 
@@ -93,6 +99,18 @@ def test_sosfilt_streams_blocks_as_one_signal():
         y, z_same = dsp.sosfilt(sos, np.zeros(0), zi=zi)
         assert y.size == 0
         np.testing.assert_array_equal(z_same, zi)
+
+
+def test_filter_streams_blocks_as_one_signal():
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal(20000)
+    for stream, sos in [(f, f.sos) for f in band_filters(OdfParams(), 96000)] + [
+            (wide_filter(OdfParams(), 96000), wide_filter(OdfParams(), 96000).sos)]:
+        cuts = [0, 1, 7, 64, 65, 1000, 4097, 12000, 20000]
+        out = np.concatenate([stream(x[a:b]) for a, b in itertools.pairwise(cuts)])
+        assert out.size == x.size
+        assert _relative_error(out, signal.sosfilt(sos, x)) < 1e-11
+        assert stream(np.zeros(0)).size == 0
 
 
 def test_linear_filter_is_its_recursion():
@@ -196,3 +214,19 @@ def test_student_t_fixed_is_the_general_one():
         np.testing.assert_allclose(student_t_logpdf_fixed(z2, nu, 0.3),
                                    student_t_logpdf(z2, nu, 0.3), rtol=1e-14, atol=ulps)
     assert not np.allclose(student_t_logpdf_fixed(z2, 4.0), student_t_logpdf(z2, 4.5))
+
+
+@pytest.mark.parametrize("code", [
+    "import drumroll.onsets.detector",
+    "from drumroll.cli.main import main; main(['onsets', '--help'])",
+    f"from drumroll.onsets import detect; detect(r'{DATA / 'table2_h80.flac'}')",
+])
+def test_onset_detection_imports_no_scipy(code):
+    probe = (f"import sys\ntry:\n    {code}\nexcept SystemExit:\n    pass\n"
+             "loaded = sorted(m for m in sys.modules if m.split('.')[0] == 'scipy')\n"
+             "print('scipy modules:', ','.join(loaded))")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True, env=env).stdout.splitlines()
+    assert out[-1].startswith("scipy modules:")
+    assert out[-1] == "scipy modules: ", out[-1]

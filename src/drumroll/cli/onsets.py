@@ -40,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``drumroll onsets``."""
     from drumroll.audio.io import AudioSource
-    from drumroll.onsets import detect  # scipy.signal: imported only when needed
+    from drumroll.onsets import detect  # the detector: imported only when needed
 
     # Refuse to clobber before doing the work, not after it.
     for path in (args.output, args.labels, args.plot):

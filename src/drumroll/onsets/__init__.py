@@ -30,8 +30,9 @@ __all__ = ["COLUMNS", "ONSET_FILE_SUFFIXES", "ONSET_FORMATS", "OnsetTable", "det
 
 
 def __getattr__(name: str) -> Any:
-    # The detector needs scipy.signal (half a second to import): loaded on first use, so
-    # that reading an onset table, or a command's --help, does not wait for it.
+    # The detector (its modules and the audio readers, a twentieth of a second to import,
+    # no scipy) is loaded on first use, so that reading an onset table, or a command's
+    # --help, does not wait for it.
     if name == "detect":
         from drumroll.onsets.detector import detect
 

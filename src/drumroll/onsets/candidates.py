@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal
 
+from drumroll.onsets.dsp import LinearFilter, sos_poles
 from drumroll.onsets.odf import (
     OdfParams,
     band_filters,
@@ -101,7 +101,7 @@ def plateau(z: np.ndarray, f: int, reach: int, within: float = 1.0) -> tuple[int
 def settle_samples(sos: np.ndarray, sample_rate: int, efolds: float = 14.0) -> int:
     """Samples after which a filter started from rest has forgotten its start (its slowest
     pole has decayed by ``efolds`` e-folds, about -120 dB for 14)."""
-    poles = signal.sos2zpk(sos)[1]
+    poles = sos_poles(sos)
     slowest = float(np.max(np.abs(poles)))
     if slowest <= 0.0:
         return 1
@@ -157,11 +157,9 @@ class CandidateStream:
         self.ref_post = max(2, round(refine_post_s * self.sr))
         self.ref_search = max(2, round(refine_search_s * self.sr))
         self.ref_after = max(2, round(refine_after_s * self.sr))
-        sos = wide_filter(params, self.sr).sos
-        self.settle = settle_samples(sos, self.sr)
-        # Transfer-function form: far cheaper per call on short windows, and accurate for a
-        # 4th-order filter (within 1e-8 of the cascade even at 96 kHz).
-        self.wide_ba = signal.sos2tf(sos)
+        wide = wide_filter(params, self.sr)
+        self.settle = settle_samples(wide.sos, self.sr)
+        self.wide = wide.filter
         self.bands = band_filters(params, self.sr)
         # Per-band frame energies from ``buf0 // hop`` on, and samples not yet in a frame.
         self.energy = [np.zeros(0) for _ in self.bands]
@@ -249,7 +247,7 @@ class CandidateStream:
         ``lead`` samples earlier: time, amplitude, SNR, sigma and level (the peak over the
         detection function's window after the onset)."""
         back = self.ref_search + max(lead, 0)
-        r = refine_window(self.buf, self.buf0, guess, self.sr, self.wide_ba, self.settle,
+        r = refine_window(self.buf, self.buf0, guess, self.sr, self.wide, self.settle,
                           pre=self.ref_pre + back - self.ref_search, post=self.ref_post,
                           search=back,
                           search_after=self.ref_after, level=self.post * self.hop,
@@ -258,15 +256,16 @@ class CandidateStream:
 
 
 def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
-                  ba: tuple[np.ndarray, np.ndarray], settle: int, *, pre: int, post: int,
+                  highpass: LinearFilter, settle: int, *, pre: int, post: int,
                   search: int, search_after: int | None = None, level: int = 0,
                   prior: Prior | None = None, codec_block: int = 0) -> Refined:
     """Refine an onset near absolute sample ``guess`` of raw samples ``buf`` (``buf[0]`` is
-    absolute sample ``buf0``): the wide high-pass ``ba`` is run from rest ``settle`` samples
-    before the refinement window. Returns the refined onset with an absolute ``sample`` and,
-    if ``level`` > 0, the peak of the high-passed sound over ``level`` samples from it.
-    ``prior`` (optional) is in absolute samples; ``codec_block`` is the stretch a lossy
-    codec's noise may precede a sound by (:func:`~.refine.out_of_codec_noise`; 0: lossless)."""
+    absolute sample ``buf0``): the wide high-pass (its cascade of sections) is run from rest
+    ``settle`` samples before the refinement window. Returns the refined onset with an
+    absolute ``sample`` and, if ``level`` > 0, the peak of the high-passed sound over
+    ``level`` samples from it. ``prior`` (optional) is in absolute samples; ``codec_block``
+    is the stretch a lossy codec's noise may precede a sound by
+    (:func:`~.refine.out_of_codec_noise`; 0: lossless)."""
     a = max(guess - pre - settle, 0)
     after = search if search_after is None else search_after
     b = guess + max(post + codec_block, after + level)
@@ -276,7 +275,7 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
         x = np.concatenate((np.zeros(lead), x))
     if x.size < b - a:
         x = np.concatenate((x, np.zeros(b - a - x.size)))
-    y = signal.lfilter(ba[0], ba[1], x)
+    y = highpass.filter(x)[0]
     r = refine_onset(y, guess - a, sample_rate, pre=pre, post=post, search=search,
                      search_after=search_after,
                      prior=None if prior is None else prior.shifted(-a),

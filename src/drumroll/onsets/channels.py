@@ -14,7 +14,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy import signal
 
 from drumroll.onsets.candidates import Candidates, refine_window, settle_samples
 from drumroll.onsets.odf import OdfParams, wide_filter
@@ -47,8 +46,8 @@ def earliest_channel(c: Candidates, channels: int, rate: int, odf: OdfParams,
     """
     if channels < 2 or len(c) == 0:
         return None
-    sos = wide_filter(odf, rate).sos
-    ba, settle = signal.sos2tf(sos), settle_samples(sos, rate)
+    wide = wide_filter(odf, rate)
+    settle = settle_samples(wide.sos, rate)
     pre, search, post = (round(v * rate) for v in (_PRE_S, _SEARCH_S, _POST_S))
     loudest = np.argsort(-c.z)[:_LOUDEST]
     times = np.empty((loudest.size, channels))
@@ -56,7 +55,7 @@ def earliest_channel(c: Candidates, channels: int, rate: int, odf: OdfParams,
         guess = round(c.time_s[k] * rate)
         lo, hi = guess - pre - search - settle, guess + search + post
         for ch in range(channels):
-            r = refine_window(excerpt(lo, hi, ch), lo, guess, rate, ba, settle,
+            r = refine_window(excerpt(lo, hi, ch), lo, guess, rate, wide.filter, settle,
                               pre=pre + search, post=post, search=search)
             times[i, ch] = r.sample
     lead = np.median(times - times.min(axis=1, keepdims=True), axis=0)

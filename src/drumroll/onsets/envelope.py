@@ -45,9 +45,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import logsumexp
 
 from drumroll.onsets.excerpt import BIN_S, Excerpt
+from drumroll.onsets.numerics import logsumexp
 from drumroll.onsets.roll import Roll
 from drumroll.onsets.start import BACK_S
 

@@ -11,7 +11,6 @@ computed on demand), and the wide high-pass that onsets are refined on.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from drumroll.onsets.candidates import (
     FLOOR_PER_SAMPLE,
@@ -19,7 +18,8 @@ from drumroll.onsets.candidates import (
     refine_window,
     settle_samples,
 )
-from drumroll.onsets.odf import OdfParams, band_filters, frame_energy, wide_filter
+from drumroll.onsets.dsp import butter_sos
+from drumroll.onsets.odf import FilterStream, OdfParams, band_filters, frame_energy, wide_filter
 from drumroll.onsets.refine import Prior, Refined
 
 #: Lower edge of the band whose power envelope shows an impact's attack (Hz): a stick's
@@ -61,9 +61,9 @@ class Excerpt:
         self.energy = []
         for filt in band_filters(odf, sample_rate):
             self.energy.append(frame_energy(filt(x)[self.skip:], self.hop))
-        sos = wide_filter(odf, sample_rate).sos
-        self.settle = settle_samples(sos, sample_rate)
-        self.ba = signal.sos2tf(sos)
+        wide = wide_filter(odf, sample_rate)
+        self.settle = settle_samples(wide.sos, sample_rate)
+        self.wide = wide.filter
         self.segment = odf.frames(0.25, sample_rate)
         self._z: dict[tuple[int, int], np.ndarray] = {}
         self._power: tuple[np.ndarray, int] | None = None
@@ -98,10 +98,9 @@ class Excerpt:
         so no sound leaks ahead of its start): ``E[i]`` is the sum of the first ``i``
         squared samples, so the power over any stretch is one difference."""
         if self._energy is None:
-            sos = signal.butter(4, min(BAND_HZ, 0.4 * self.sr), btype="highpass", fs=self.sr,
-                                output="sos")
+            sos = butter_sos(4, min(BAND_HZ, 0.4 * self.sr), "highpass", self.sr)
             self._energy = np.concatenate(([0.0], np.cumsum(np.square(
-                signal.sosfilt(sos, self.x)))))
+                FilterStream(sos)(self.x)))))
         return self._energy
 
     def band_power(self) -> tuple[np.ndarray, int]:
@@ -118,6 +117,6 @@ class Excerpt:
                level: int = 0) -> Refined:
         """Refine an onset near absolute sample ``guess`` (see
         :func:`~.candidates.refine_window`); the returned ``sample`` is absolute."""
-        return refine_window(self.x, self.start, guess, self.sr, self.ba, self.settle,
+        return refine_window(self.x, self.start, guess, self.sr, self.wide, self.settle,
                              pre=pre, post=post, search=search, search_after=search_after,
                              prior=prior, level=level, codec_block=self.codec_block)

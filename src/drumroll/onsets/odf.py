@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
-from scipy import signal
+
+from drumroll.onsets.dsp import LinearFilter, butter_sos
 
 
 @dataclass(frozen=True)
@@ -73,11 +74,19 @@ class FilterStream:
 
     def __init__(self, sos: np.ndarray) -> None:
         self.sos = sos
-        self.zi = np.zeros((sos.shape[0], 2))
+        self.filter = _linear_filter(sos.tobytes(), sos.shape[0])
+        self.zi = np.zeros(self.filter.order)
 
     def __call__(self, block: np.ndarray) -> np.ndarray:
-        out, self.zi = signal.sosfilt(self.sos, block, zi=self.zi)
+        out, self.zi = self.filter.filter(block, self.zi)
         return out
+
+
+@functools.lru_cache(maxsize=32)
+def _linear_filter(coefficients: bytes, sections: int) -> LinearFilter:
+    """The block form of a filter (built once per design: every roll's excerpt runs the
+    same filters again)."""
+    return LinearFilter(np.frombuffer(coefficients, dtype=np.float64).reshape(sections, 6))
 
 
 def band_filters(params: OdfParams, sample_rate: int) -> list[FilterStream]:
@@ -93,9 +102,9 @@ def _band_sos(params: OdfParams, sample_rate: int) -> tuple[np.ndarray, ...]:
     out = []
     for lo, hi in band_edges(params, sample_rate):
         if hi is None:
-            sos = signal.butter(2, lo, btype="highpass", fs=sample_rate, output="sos")
+            sos = butter_sos(2, lo, "highpass", sample_rate)
         else:
-            sos = signal.butter(2, [lo, hi], btype="bandpass", fs=sample_rate, output="sos")
+            sos = butter_sos(2, [lo, hi], "bandpass", sample_rate)
         out.append(sos)
     return tuple(out)
 
@@ -108,7 +117,7 @@ def wide_filter(params: OdfParams, sample_rate: int) -> FilterStream:
 @functools.lru_cache(maxsize=16)
 def _wide_sos(params: OdfParams, sample_rate: int) -> np.ndarray:
     lo = min(params.highpass_hz, 0.1 * sample_rate)
-    return signal.butter(4, lo, btype="highpass", fs=sample_rate, output="sos")
+    return butter_sos(4, lo, "highpass", sample_rate)
 
 
 def frame_energy(y: np.ndarray, hop: int) -> np.ndarray:

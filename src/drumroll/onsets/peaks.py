@@ -9,7 +9,8 @@ for steady noise as well as for the fluctuating ring-down inside a roll.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
+
+from drumroll.onsets.dsp import maximum_filter1d, median_filter1d
 
 #: MAD to Gaussian standard deviation.
 MAD_TO_SIGMA = 1.4826
@@ -22,7 +23,7 @@ def local_maxima(z: np.ndarray, threshold: float, half_width: int) -> np.ndarray
     """
     if z.size == 0:
         return np.zeros(0, dtype=np.int64)
-    biggest = ndimage.maximum_filter1d(z, size=2 * half_width + 1, mode="nearest")
+    biggest = maximum_filter1d(z, 2 * half_width + 1)
     idx = np.flatnonzero((z >= threshold) & (z >= biggest))
     if idx.size > 1:  # drop later frames of a flat top
         keep = np.concatenate(([True], np.diff(idx) > half_width))
@@ -72,8 +73,8 @@ def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
     med_a, mad_a = np.concatenate(med), np.concatenate(mad)
     n_seg = med_a.size
     if n_seg > 1:
-        med_a = ndimage.median_filter(med_a, size=2 * reach + 1, mode="nearest")
-        mad_a = ndimage.median_filter(mad_a, size=2 * reach + 1, mode="nearest")
+        med_a = median_filter1d(med_a, 2 * reach + 1)
+        mad_a = median_filter1d(mad_a, 2 * reach + 1)
     sigma = np.maximum(MAD_TO_SIGMA * mad_a, 1e-3)
     seg_of = np.clip((np.arange(odf.size) - offset) // segment, 0, n_seg - 1)
     return (odf - med_a[seg_of]) / sigma[seg_of]

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drumroll.stats import student_t_logpdf
+from drumroll.stats import student_t_logpdf_fixed
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ class Prior:
         sd = max(self.sd, 1.0)
         z = (k - self.mean) / sd
         if np.isfinite(self.dof):
-            core = student_t_logpdf(z * z, max(self.dof, 1.0))
+            core = student_t_logpdf_fixed(z * z, max(self.dof, 1.0))
         else:
             core = -0.5 * z * z - 0.5 * np.log(2.0 * np.pi)
         return np.logaddexp(np.log1p(-self.outlier) + core - np.log(sd),

@@ -25,9 +25,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from drumroll.onsets.excerpt import Excerpt
+from drumroll.onsets.numerics import cauchy_least_squares
 from drumroll.onsets.refine import Prior
 from drumroll.onsets.roll import Roll
 
@@ -91,8 +91,7 @@ def _robust_fit(times: np.ndarray, bounce: np.ndarray, weight: np.ndarray, p0: l
     def jac(p):
         return _law(p, bounce, quadratic)[1] / weight[:, None]
 
-    sol = optimize.least_squares(resid, p0, jac=jac, loss="cauchy", method="trf")
-    return sol.x, float(sol.cost)
+    return cauchy_least_squares(resid, jac, np.asarray(p0, dtype=float))
 
 
 def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | None = None

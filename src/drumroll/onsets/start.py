@@ -34,13 +34,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import log_ndtr, logsumexp
 
 from drumroll.onsets.excerpt import Excerpt
+from drumroll.onsets.numerics import log_ndtr, logsumexp
 from drumroll.onsets.prediction import flight_predictor
 from drumroll.onsets.refine import STRONG, Refined
 from drumroll.onsets.roll import Roll
-from drumroll.stats import student_t_logpdf
+from drumroll.stats import student_t_logpdf_fixed
 
 #: Longest stretch before a change point searched for earlier stages of the same sound: an
 #: impact's loudest stage comes within a few ms of its start.
@@ -97,7 +97,7 @@ class StartPrior:
     def log_density(self, t: np.ndarray | float) -> np.ndarray | float:
         """Log density (up to a constant) at time(s) ``t``."""
         z = (np.asarray(t) - self.mean_s) / max(self.sd_s, 1e-6)
-        return student_t_logpdf(z * z, 4.0)
+        return student_t_logpdf_fixed(z * z, 4.0)
 
 
 def law_prior(roll: Roll, bounce: int) -> StartPrior | None:

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drumroll.onsets.candidates import Candidates
-from drumroll.stats import student_t_logpdf
+from drumroll.stats import student_t_logpdf_fixed
 
 
 @dataclass(frozen=True)
@@ -260,7 +260,7 @@ class _Beam:
     def level_gain(self, e: np.ndarray) -> np.ndarray:
         """Log-likelihood ratio of a level ``e`` dB off the trend."""
         s = self.p.level_scatter_db
-        return (student_t_logpdf((e / s) ** 2, self.p.level_dof, math.log(s))
+        return (student_t_logpdf_fixed((e / s) ** 2, self.p.level_dof, math.log(s))
                 + self.lev_background)
 
     def run(self) -> tuple[list[int], np.ndarray, float]:
