@@ -31,6 +31,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,8 +40,10 @@ import numpy as np
 #: the longer they are; 64 is near the fastest for the filters here (2 to 4 states), and
 #: as accurate as any.
 
-#: Blocks per matrix product in :meth:`LinearFilter.filter`.
+#: Blocks per matrix product in :meth:`LinearFilter.filter`, and rows per product in its
+#: recurrence between blocks: small enough that BLAS runs each on one thread.
 _ROWS = 32
+_SCAN_ROWS = 8192
 BLOCK = 64
 
 
@@ -327,8 +330,8 @@ class LinearFilter:
         n = x.size
         if n == 0:
             return np.zeros(0), s0.copy()
-        basis, conv, free, drive, powers, doubling = self._blocks
-        size = conv.shape[0]
+        m = self._blocks
+        size = m.conv_t.shape[0]
         nb = -(-n // size)  # blocks
         # Blocks in groups of _ROWS: numpy multiplies stacked matrices one small product
         # each, which BLAS runs on one thread (a large product it splits over threads, and on
@@ -340,24 +343,26 @@ class LinearFilter:
         # States at the blocks' starts: s[b+1] = A^size s[b] + (block b's input's share),
         # i.e. s[b] = sum over i <= b of (A^size)^(b-i) w[i] with w = (s0, shares...): a
         # prefix sum under a constant linear map, done by doubling (Hillis-Steele).
-        w = np.zeros((groups * _ROWS + 1, d))
-        w[0] = np.linalg.solve(basis, s0)
-        w[1:] = (xg @ drive.T).reshape(-1, d)
-        for shift, power in zip(_shifts(nb + 1), doubling, strict=False):
-            w[shift: nb + 1] += _times(w[: nb + 1 - shift], power)
-        y = xg @ conv.T + w[:-1].reshape(groups, _ROWS, d) @ free.T
+        w = np.empty((groups * _ROWS + 1, d))
+        w[0] = m.basis_inv @ s0
+        w[1:] = (xg @ m.drive_t).reshape(-1, d)
+        for shift, power_t in zip(_shifts(nb + 1), m.doubling_t, strict=False):
+            # Row chunks small enough for one thread, from the last: a chunk's update reads
+            # only rows below it, which later (lower) chunks have not changed yet.
+            for hi in range(nb + 1, shift, -_SCAN_ROWS):
+                lo = max(hi - _SCAN_ROWS, shift)
+                w[lo:hi] += w[lo - shift: hi - shift] @ power_t
+        y = np.empty((groups, _ROWS, size))
+        np.matmul(xg, m.conv_t, out=y)
+        # The free response added a few groups at a time: a temporary as large as y is
+        # a fresh mapping of memory every call, whose page faults cost more than the sums.
+        free = w[:-1].reshape(groups, _ROWS, d)
+        for g in range(0, groups, 4):
+            y[g: g + 4] += free[g: g + 4] @ m.free_t
         r = n - (nb - 1) * size  # samples in the last block
-        last = basis @ (powers[r] @ w[nb - 1] + drive[:, size - r:] @ xb[(nb - 1) * size: n])
-        return y.ravel()[:n], last
-
-
-def _times(v: np.ndarray, m: np.ndarray) -> np.ndarray:
-    """``v @ m.T`` for a few columns, as sums of columns (not a BLAS product: see
-    :meth:`LinearFilter.filter`)."""
-    out = v[:, :1] * m[:, 0]
-    for k in range(1, m.shape[1]):
-        out += v[:, k: k + 1] * m[:, k]
-    return out
+        last = m.basis @ (m.powers[r] @ w[nb - 1]
+                          + xb[(nb - 1) * size: n] @ m.drive_t[size - r:])
+        return y.reshape(-1)[:n], last
 
 
 def _shifts(count: int) -> list[int]:
@@ -393,28 +398,30 @@ def _modal_basis(a1: float, a2: float) -> np.ndarray:
     return basis / np.linalg.norm(basis, axis=0)
 
 
-def _block_matrices(f: LinearFilter, size: int = BLOCK, levels: int = 40
-                    ) -> tuple[np.ndarray, ...]:
+class _Blocks(NamedTuple):
     """What :meth:`LinearFilter.filter` needs, in the sections' modal bases
-    (:func:`_modal_basis`).
+    (:func:`_modal_basis`); products are taken as ``rows @ matrix``, so most are stored
+    transposed."""
 
-    Returns
-    -------
-    basis
-        ``(d, d)`` block-diagonal: the registers (scipy's ``zi`` flattened) are ``basis @
-        state``.
-    conv
-        ``(size, size)`` lower-triangular Toeplitz: the first ``size`` samples of the impulse
-        response (a block's output due to its own input, from rest), from the recursion.
-    free
-        ``(size, d)``: the output over a block from each unit state with no input.
-    drive
-        ``(d, size)``: the state at a block's end due to a unit sample at each position.
-    powers
-        ``(size + 1, d, d)``: the state transition over k samples, k = 0 … size.
-    doubling
-        ``(A^size)^(2^j)`` for j = 0 … ``levels - 1`` (fewer once they underflow to 0).
-    """
+    #: ``(d, d)`` block-diagonal: the registers (scipy's ``zi`` flattened) are ``basis @
+    #: state``; and its inverse.
+    basis: np.ndarray
+    basis_inv: np.ndarray
+    #: ``(size, size)`` lower-triangular Toeplitz, transposed: the first ``size`` samples of
+    #: the impulse response (a block's output due to its own input, from rest).
+    conv_t: np.ndarray
+    #: ``(d, size)``: the output over a block from each unit state with no input.
+    free_t: np.ndarray
+    #: ``(size, d)``: the state at a block's end due to a unit sample at each position.
+    drive_t: np.ndarray
+    #: ``(size + 1, d, d)``: the state transition over k samples, k = 0 … size.
+    powers: np.ndarray
+    #: ``(A^size)^(2^j)``, transposed, for j = 0, 1, … (fewer once they underflow to 0).
+    doubling_t: list[np.ndarray]
+
+
+def _block_matrices(f: LinearFilter, size: int = BLOCK, levels: int = 40) -> _Blocks:
+    """The block matrices of ``f`` (:class:`_Blocks`), from its recursion run in Python."""
     d = f.order
     # The recursion as a linear map, in the registers: one step from each unit register
     # (no input) and from rest with a unit input.
@@ -449,11 +456,13 @@ def _block_matrices(f: LinearFilter, size: int = BLOCK, levels: int = 40
     doubling = []
     m = powers[size]
     for _ in range(levels):
-        doubling.append(m)
+        doubling.append(np.ascontiguousarray(m.T))
         if not np.any(m):
             break
         m = m @ m
-    return basis, conv, free, drive, powers, doubling
+    return _Blocks(basis, np.linalg.inv(basis), np.ascontiguousarray(conv.T),
+                   np.ascontiguousarray(free.T), np.ascontiguousarray(drive.T), powers,
+                   doubling)
 
 
 @functools.lru_cache(maxsize=64)
