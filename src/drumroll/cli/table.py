@@ -43,8 +43,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("runs", metavar="RUNS.toml", help="runs file (see drumroll.table.runs)")
     parser.add_argument("-o", "--output", type=Path, metavar="FILE",
                         help="write the table here (default: print it)")
-    parser.add_argument("--format", choices=_TableFormats(),
-                        help="table format (default: from the -o suffix, else markdown)")
+    # An explicit metavar: without one, add_argument formats the choices at once (to check
+    # them), importing the table's machinery (scipy.special among it) for every command.
+    parser.add_argument("--format", choices=_TableFormats(), metavar="FORMAT",
+                        help="table format: %(choices)s (default: from the -o suffix, else "
+                        "markdown)")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write Figure 5 here")
     parser.add_argument("--workers", type=positive_int, metavar="N",
                         help="runs estimated side by side (default: the cores)")
