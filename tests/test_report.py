@@ -139,3 +139,11 @@ def test_minimal_summary_still_renders():
 ])
 def test_format_estimate(stats, expected):
     assert format_estimate(ParameterSummary.from_json(stats)) == expected
+
+
+def test_a_round_off_error_is_no_error():
+    """A fixed t_B computed through the model spreads by ~1e-17 s: it is given alone, not as
+    0.199999999999999983 ± 0.000000000000000028."""
+    assert format_value_error(0.2, 2.8e-17) == "0.2"
+    assert format_value_error(0.2, 2e-10) == "0.20000000000 ± 0.00000000020"
+    assert format_value_error(0.2509, 0.0061) == "0.251 ± 0.006"

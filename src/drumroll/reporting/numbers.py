@@ -28,6 +28,10 @@ def error_decimals(err: float, significant: int | None = None) -> int:
     return significant - 1 - exponent
 
 
+#: Relative size below which an error is floating-point round-off (about 4500 ulp).
+_ROUND_OFF = 1e-12
+
+
 def format_value_error(value: float, err: float, significant: int | None = None,
                        unit: str = "") -> str:
     """``value ± err`` with the error rounded to one or two significant digits.
@@ -38,11 +42,14 @@ def format_value_error(value: float, err: float, significant: int | None = None,
     '0.861 ± 0.012'
     >>> format_value_error(131.2, 2.0, significant=1, unit="mm")
     '131 ± 2 mm'
+
+    An error at the level of floating-point round-off of the value (the spread of a fixed
+    value computed by different routes) is no error: the value is given alone.
     """
     suffix = f" {unit}" if unit else ""
     if not math.isfinite(value):
         return f"{value}{suffix}"
-    if not (math.isfinite(err) and err > 0):
+    if not (math.isfinite(err) and err > _ROUND_OFF * abs(value)):
         return f"{value:.4g}{suffix}"
     decimals = error_decimals(err, significant)
     if decimals > 0:
