@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import time
 
 import pytest
@@ -30,3 +32,36 @@ def test_an_interrupt_stops_running_workers_without_waiting_for_them():
         time.sleep(0.5)
         raise KeyboardInterrupt
     assert time.perf_counter() - started < 15
+
+
+SPY = """
+import os, sys
+for variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.pop(variable, None)
+import drumroll.cli.main as cli
+import drumroll.cli.table as table_cli
+set_up = cli._one_blas_thread
+def spy():
+    print("numpy loaded" if "numpy" in sys.modules else "numpy not loaded")
+    set_up()
+cli._one_blas_thread = spy
+entry = {"drumroll": cli.main, "estimate": cli.estimate_main, "table": table_cli.main}
+try:
+    entry[sys.argv[1]](["--help"])
+except SystemExit:
+    pass
+print("threads", os.environ.get("OPENBLAS_NUM_THREADS"))
+"""
+
+
+@pytest.mark.parametrize("entry", ["drumroll", "estimate", "table"])
+def test_every_command_runs_blas_on_one_thread_per_process(entry):
+    # The commands parallelise over processes; BLAS threads on top spin and take the cores
+    # the other workers need (a 6-run table: 24 CPU-s with one thread, 28 without). The
+    # setting only counts if made before numpy loads BLAS, and building a parser loads numpy.
+    proc = subprocess.run([sys.executable, "-c", SPY, entry], capture_output=True, text=True,
+                          check=True)
+    lines = [line for line in proc.stdout.splitlines() if not line.startswith(("usage", " "))]
+    assert "numpy not loaded" in lines
+    assert "numpy loaded" not in lines
+    assert "threads 1" in lines

@@ -12,7 +12,7 @@ import importlib
 import os
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from drumroll._version import __version__
 from drumroll.errors import DrumrollError
@@ -65,12 +65,18 @@ def _one_blas_thread() -> None:
         os.environ.setdefault(variable, "1")
 
 
-def run_cli(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> int:
-    """Parse ``argv`` with ``parser`` and run the chosen command, turning errors into lines."""
+def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[str] | None
+            ) -> int:
+    """Parse ``argv`` with the parser ``make_parser`` builds and run the chosen command,
+    turning errors into lines.
+
+    The process is set up first (one BLAS thread), since building a parser loads numpy.
+    """
+    _one_blas_thread()
+    parser = make_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _show_warning
     _without_numba()
-    _one_blas_thread()
     try:
         return int(args.func(args) or 0)
     except DrumrollError as exc:
@@ -85,18 +91,22 @@ def run_cli(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``drumroll`` with ``argv`` (default: ``sys.argv[1:]``) and return the exit status."""
-    return run_cli(build_parser(), argv)
+    return run_cli(build_parser, argv)
 
 
 def estimate_main(argv: Sequence[str] | None = None) -> int:
     """``estimate SOURCE --prior CONFIG.toml``: the top-level alias of ``drumroll estimate``."""
-    from drumroll.cli.estimate import add_arguments
+    def make_parser() -> argparse.ArgumentParser:
+        from drumroll.cli.estimate import add_arguments
 
-    parser = argparse.ArgumentParser(
-        prog="estimate", description="Estimate α, t_C, t_B, the effective pivot, the release "
-        "speed and the onset jitter from a drumroll recording (same as `drumroll estimate`).")
-    add_arguments(parser)
-    return run_cli(parser, argv)
+        parser = argparse.ArgumentParser(
+            prog="estimate", description="Estimate α, t_C, t_B, the effective pivot, the "
+            "release speed and the onset jitter from a drumroll recording (same as "
+            "`drumroll estimate`).")
+        add_arguments(parser)
+        return parser
+
+    return run_cli(make_parser, argv)
 
 
 if __name__ == "__main__":

