@@ -61,14 +61,26 @@ def worktree(revision: str) -> Iterator[Path]:
                             str(path)], check=False)
 
 
+def in_tree(path: Path, src: Path) -> Path:
+    """``path`` of this checkout as the checkout whose package is at ``src`` has it: each
+    version runs the command on its own bundled files, as its users do (a config key renamed
+    since is then no error)."""
+    try:
+        relative = path.relative_to(ROOT)
+    except ValueError:
+        return path  # not a bundled file: the same for both
+    theirs = src.parent / relative
+    return theirs if theirs.exists() else path
+
+
 def run_once(src: Path, source: Path, config: Path) -> dict:
     """One run of the main command with the package at ``src``: wall time, the stages the
     progress lines and ``summary.json`` give, and α's summary."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
         env = {**os.environ, "PYTHONPATH": str(src)}
-        command = [sys.executable, "-m", "drumroll", "estimate", str(source), "--prior",
-                   str(config), "-o", str(out)]
+        command = [sys.executable, "-m", "drumroll", "estimate", str(in_tree(source, src)),
+                   "--prior", str(in_tree(config, src)), "-o", str(out)]
         started = time.perf_counter()
         proc = subprocess.run(command, capture_output=True, text=True, check=False, env=env)
         wall = time.perf_counter() - started
@@ -125,13 +137,15 @@ TABLE_RUNS = ("table1_d110", "table1_d131", "table1_d152", "table2_h50", "table2
               "table2_h110")
 
 
-def six_run_table(folder: Path) -> Path:
-    """A runs file of :data:`TABLE_RUNS` (absolute paths) in ``folder``."""
+def six_run_table(folder: Path, src: Path = ROOT / "src") -> Path:
+    """A runs file of :data:`TABLE_RUNS` (absolute paths of the bundled files of the checkout
+    whose package is at ``src``) in ``folder``."""
     lines = ['title = "Tables 1 and 2: six runs"', ""]
+    data = src.parent / "data"
     for name in TABLE_RUNS:
-        lines += ["[[run]]", f'label = "{name}"', f'source = "{ROOT / "data" / name}.flac"',
-                  f'config = "{ROOT / "data" / name}.toml"', ""]
-    path = folder / "six_runs.toml"
+        lines += ["[[run]]", f'label = "{name}"', f'source = "{data / name}.flac"',
+                  f'config = "{data / name}.toml"', ""]
+    path = folder / f"six_runs_{src.parent.name}.toml"
     path.write_text("\n".join(lines))
     return path
 
@@ -156,9 +170,9 @@ def other_commands(repeats: int, against: str) -> None:
     no slower)."""
     with worktree(against) as old, tempfile.TemporaryDirectory() as tmp:
         trees = {"this tree": ROOT / "src", against: old / "src"}
-        runs_file = six_run_table(Path(tmp))
+        runs_files = {label: six_run_table(Path(tmp), src) for label, src in trees.items()}
         cases = {
-            "table, 6 runs (no cache)": (["table", str(runs_file), "--no-cache", "-q"], 1 / 3),
+            "table, 6 runs (no cache)": (["table", "{runs}", "--no-cache", "-q"], 1 / 3),
             "onsets, 4 s recording": (["onsets", str(ROOT / "data" / "table2_h80.flac")],
                                       1 / 2),
             "estimate --help": (["estimate", "--help"], 1.0),
@@ -170,7 +184,8 @@ def other_commands(repeats: int, against: str) -> None:
             outputs: dict[str, str] = {}
             for _ in range(repeats):
                 for label, src in trees.items():
-                    wall, outputs[label] = timed(src, arguments)
+                    wall, outputs[label] = timed(src, [str(runs_files[label]) if a == "{runs}"
+                                                       else a for a in arguments])
                     walls[label].append(wall)
             medians = {label: statistics.median(w) for label, w in walls.items()}
             ratio = medians["this tree"] / medians[against]
