@@ -1,4 +1,4 @@
-"""Densities more than one stage of the pipeline uses, each written once."""
+"""Densities and summaries more than one stage of the pipeline uses, each written once."""
 
 from __future__ import annotations
 
@@ -45,3 +45,10 @@ def _gammaln():
     from scipy.special import gammaln  # a fifth of a second: loaded when first needed
 
     return gammaln
+
+
+def central_band(draws: NDArray[np.float64], prob: float = 0.9
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Lower edge, median and upper edge of the central ``prob`` interval along axis 0."""
+    lo, mid, hi = np.nanquantile(draws, [(1 - prob) / 2, 0.5, (1 + prob) / 2], axis=0)
+    return lo, mid, hi

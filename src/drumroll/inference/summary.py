@@ -7,7 +7,6 @@ from typing import Any
 
 import arviz as az
 import numpy as np
-from numpy.typing import NDArray
 
 from drumroll.inference.comparison import LooResult
 from drumroll.inference.convergence import diagnose
@@ -21,6 +20,7 @@ from drumroll.inference.results import (
 )
 from drumroll.inference.sampling import Chain
 from drumroll.onsets.table import single_flights
+from drumroll.stats import central_band
 
 
 def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9
@@ -121,13 +121,6 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
                                      default=math.nan)),
         checks=int(chain.checks), target_ess=float(sampler.target_ess),
         max_r_hat=float(sampler.max_r_hat), warnings=tuple(warnings))
-
-
-def central_band(draws: NDArray[np.float64], prob: float = 0.9
-         ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Lower edge, median and upper edge of the central ``prob`` interval along axis 0."""
-    lo, mid, hi = np.nanquantile(draws, [(1 - prob) / 2, 0.5, (1 + prob) / 2], axis=0)
-    return lo, mid, hi
 
 
 def flight_series(idata: az.InferenceData, prob: float = 0.9) -> FlightSeries:

@@ -19,7 +19,6 @@ from pathlib import Path
 import numpy as np
 
 from drumroll.inference.inference_data import observed_bounces, observed_onsets
-from drumroll.inference.summary import central_band
 from drumroll.reporting.plot_style import (
     BAND,
     DATA_COLOR,
@@ -31,6 +30,7 @@ from drumroll.reporting.plot_style import (
     save_figure,
     style,
 )
+from drumroll.stats import central_band
 
 
 def noise_free_onsets(idata) -> np.ndarray | None:

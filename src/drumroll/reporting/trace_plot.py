@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 
 from drumroll.inference.results import ParameterSummary
-from drumroll.inference.summary import central_band
 from drumroll.reporting.plot_style import (
     BAND,
     OKABE_ITO,
@@ -31,6 +30,7 @@ from drumroll.reporting.plot_style import (
     save_figure,
     style,
 )
+from drumroll.stats import central_band
 
 #: Colours of the highlighted walkers (none of them a model colour).
 _HIGHLIGHT = (OKABE_ITO["orange"], OKABE_ITO["purple"], OKABE_ITO["sky"])
