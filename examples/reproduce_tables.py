@@ -51,13 +51,13 @@ def truth_rows(name: str, result) -> list[str]:
             continue
         truth = json.loads(truth_file.read_text())
         alpha, t_b = truth["simulate"]["alpha"], truth["physics"]["t_b"]
-        fit_a, fit_t = row["alpha"], row["fitted_t_b"]
+        fit_a, fit_t = row.alpha, row.fitted_t_b
         lines.append(
             f"| {name}: {run.label} | {alpha:g} | "
-            f"{format_value_error(fit_a['value'], fit_a['err'])} | "
-            f"{fit_a['value'] - alpha:+.4f} ({(fit_a['value'] - alpha) / fit_a['err']:+.1f} σ) "
-            f"| {t_b:.4f} | {format_value_error(fit_t['value'], fit_t['err'])} | "
-            f"{row['n_onsets']} of {len(truth['impact_times_s'])} |")
+            f"{format_value_error(fit_a.value, fit_a.err)} | "
+            f"{fit_a.value - alpha:+.4f} ({(fit_a.value - alpha) / fit_a.err:+.1f} σ) "
+            f"| {t_b:.4f} | {format_value_error(fit_t.value, fit_t.err)} | "
+            f"{row.summary.n_onsets} of {len(truth['impact_times_s'])} |")
     return lines
 
 
