@@ -141,7 +141,7 @@ class ParameterSpace:
         sampler kernel (:meth:`~drumroll.physics.model.ForwardModel.flights`), which computes
         only the flights, with one validity mask instead of a reason per point. Rows where the
         mask is False hold garbage (possibly NaN). Valid rows equal
-        ``self.bounces(x, n_flights).impacts`` (tests/test_inference_speed_paths).
+        ``self.bounces(x, n_flights).impacts`` (tests/unit/inference/test_posterior.py).
 
         Parameters
         ----------

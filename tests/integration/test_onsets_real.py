@@ -9,7 +9,6 @@ real hits, layered by impact speed: a sound the extractor was not developed on.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,8 +20,8 @@ from drumroll.simulation import Disturbances
 from drumroll.simulation.hits import HitBank
 from drumroll.simulation.measured_room import MeasuredRoom
 from drumroll.simulation.render_hits import ExtraHit, render_hits
+from paths import DATA
 
-DATA = Path(__file__).resolve().parents[1] / "data"
 SAMPLES = DATA / "samples"
 SNARES = {
     "pearl": [f"avl/38-PearlSnare-{i}.flac" for i in range(1, 6)],

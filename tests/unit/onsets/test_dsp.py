@@ -6,7 +6,6 @@ import math
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +14,7 @@ from scipy import ndimage, optimize, signal, special
 from drumroll.onsets import dsp, numerics
 from drumroll.onsets.odf import OdfParams, band_edges, band_filters, wide_filter
 from drumroll.stats import student_t_logpdf, student_t_logpdf_fixed
-
-DATA = Path(__file__).resolve().parents[1] / "data"
+from paths import DATA
 
 RATES = (8000, 11025, 22050, 44100, 48000, 96000, 192000)
 

@@ -11,7 +11,7 @@ import soundfile as sf
 from drumroll.audio import iter_blocks, probe, read_audio
 from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets import detect
-from test_onsets import score, simulated_roll
+from tests.unit.onsets.test_detector import score, simulated_roll
 
 CASES = [  # (format, subtype, extension, sample rate, channels, lossy)
     ("WAV", "PCM_16", "wav", 44100, 1, False),

@@ -8,8 +8,8 @@ import soundfile as sf
 
 from drumroll.cli.main import main
 from drumroll.onsets import COLUMNS, read_onsets
-from test_audio_io import BAD, _write_bad
-from test_onsets import simulated_roll
+from tests.unit.audio.test_io import BAD, _write_bad
+from tests.unit.onsets.test_detector import simulated_roll
 
 
 @pytest.fixture(scope="module")

@@ -23,8 +23,7 @@ from drumroll.table import FORMATS, format_table, load_runs
 from drumroll.table.execute import Estimate, RunRow, TableResult, run_key
 from drumroll.table.formatting import format_for
 from drumroll.table.plot import plot_table
-
-DATA = Path(__file__).resolve().parents[1] / "data"
+from paths import DATA
 
 BASE = """
 model = "pendulum"

@@ -19,6 +19,7 @@ from drumroll.inference.evidence import (
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import SamplerSettings, run_emcee
+from paths import DATA
 
 
 class GaussianToy:
@@ -213,13 +214,12 @@ def test_cheap_evidence_agrees_with_dynesty_on_a_bundled_recording(model, cheap_
     sampling passes its diagnostic, it agrees with nested sampling within their errors. The
     power law's k̂ sits near 0.7 (0.6–0.8 by seed: its jitter's flat shelf down to the
     prior's end), so either outcome is allowed there; the pendulums' must pass."""
-    from pathlib import Path
 
     from drumroll.config import load_config
     from drumroll.inference.settings import estimate_settings
     from drumroll.pipeline import choose_roll, load_onsets, reported_draws
 
-    root = Path(__file__).resolve().parents[1] / "data"
+    root = DATA
     config = load_config(root / "table2_h80.toml")
     settings = estimate_settings(config)
     onsets = load_onsets(root / "table2_h80.flac")

@@ -32,8 +32,8 @@ from drumroll.onsets import read_onsets
 from drumroll.simulation.phone import phone_agc
 from drumroll.table.execute import run_key
 from drumroll.table.runs import parse_runs
+from paths import CORPUS, DATA
 
-DATA = Path(__file__).resolve().parents[1] / "data"
 PINGPONG = DATA / "pingpong.wav"
 
 
@@ -478,7 +478,6 @@ def test_the_bundled_phone_recording(folder, capsys, wav_onsets):
 
 # --- the corpus, where it is present ------------------------------------------------------
 
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
 
 
 @pytest.mark.skipif(not CORPUS.is_dir(), reason="the corpus (../shared/corpus) is not here")

@@ -9,7 +9,6 @@ the CLI and I/O tests, which only need some roll.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +17,7 @@ from drumroll.errors import AudioError, DrumrollError
 from drumroll.onsets import COLUMNS, OnsetTable, detect, read_onsets
 from drumroll.onsets.candidates import CandidateStream
 from drumroll.simulation import Disturbances, Room, render
+from paths import DATA
 
 
 def synthetic_roll(sr: int = 44100, *, t0: float = 0.4, tb: float = 0.25, alpha: float = 0.88,
@@ -237,7 +237,7 @@ def assert_numbered(table, truth: np.ndarray) -> None:
                                   "push"])
 def test_bundled_rolls_are_numbered(name):
     """A fit uses the bounce numbers: one numbered one off would shift every later one."""
-    root = Path(__file__).resolve().parents[1] / "data"
+    root = DATA
     truth = json.loads((root / f"{name}.truth.json").read_text())
     assert_numbered(detect(root / f"{name}.flac"), np.asarray(truth["impact_times_s"]))
 

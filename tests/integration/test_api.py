@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import drumroll
-
-DATA = Path(__file__).resolve().parents[1] / "data"
+from paths import DATA
 
 
 def test_the_top_level_names_every_command_and_imports_nothing_heavy():

@@ -36,7 +36,7 @@ from drumroll.onsets import OnsetTable
 from drumroll.pipeline import choose_roll, estimate
 from drumroll.reporting.outputs import load_posteriors
 from drumroll.reporting.report import onsets_section, render_report
-from test_inference_speed_paths import _config, _points
+from tests.unit.inference.test_posterior import _config, _points
 
 #: The simulated ball: α, t_B (s), timing jitter (s), onsets, the bounce left out.
 ALPHA, T_B, JITTER, N_ONSETS, GAP = 0.85, 0.40, 2e-4, 20, 8
@@ -351,9 +351,10 @@ def test_a_roll_beyond_those_present_is_one_line_before_sampling(two_roll_csv, t
 
 
 def test_runs_files_take_a_roll_per_run(tmp_path, capsys):
+    from tests.unit.table.test_table import BASE, RUN_H80, runs_text, write_onsets
+
     from drumroll.table import load_runs
     from drumroll.table.execute import run_key
-    from test_table import BASE, RUN_H80, runs_text, write_onsets
 
     (tmp_path / "base.toml").write_text(BASE)
     write_onsets(tmp_path / "h80.txt", "table2_h80")
@@ -399,9 +400,10 @@ def test_onset_figure_draws_each_roll_and_breaks_at_a_gap(two_roll_csv, tmp_path
 
 
 def test_a_tables_notes_carry_each_runs_notes(tmp_path):
+    from tests.unit.table.test_table import BASE, RUN_H80, fake_row, runs_text, write_onsets
+
     from drumroll.table import format_table, load_runs
     from drumroll.table.execute import TableResult
-    from test_table import BASE, RUN_H80, fake_row, runs_text, write_onsets
 
     (tmp_path / "base.toml").write_text(BASE)
     write_onsets(tmp_path / "h80.txt", "table2_h80")

@@ -17,8 +17,9 @@ from drumroll.cli.main import main
 from drumroll.physics import StickGeometry, bounce_sequence
 from drumroll.simulation import Disturbances, ExtraHit, HitBank, MeasuredRoom, render_hits
 from drumroll.simulation.render import LOCAL_SNR_HIGHPASS_HZ, LOCAL_SNR_WINDOW_S
+from paths import DATA
 
-SAMPLES = Path(__file__).resolve().parents[1] / "data" / "samples"
+SAMPLES = DATA / "samples"
 PEARL = [SAMPLES / "avl" / f"38-PearlSnare-{i}.flac" for i in range(1, 6)]
 CLAVES = SAMPLES / "js30" / "claves-1.ogg"
 LIVE = SAMPLES / "rooms" / "genesis6_live_room.flac"

@@ -12,7 +12,7 @@ import pytest
 
 from drumroll.cli.main import main
 from drumroll.table import load_runs, run_table
-from test_table import BASE, RUN_H80, run_d131, runs_text, write_onsets
+from tests.unit.table.test_table import BASE, RUN_H80, run_d131, runs_text, write_onsets
 
 
 @pytest.fixture(scope="module")
