@@ -1,7 +1,8 @@
 """Benchmark: drumroll's onset extractor against librosa on simulated recordings with truth.
 
 Usage: ``python benchmarks/onsets.py [--trials N] [--first-seed S] [--jitter-ms J] [--quick]
-[--no-memory] [--no-peers] [--no-real-hits | --real-hits-only] [--no-phone | --phone-only]``
+[--no-memory] [--no-peers] [--no-real-hits | --real-hits-only] [--no-phone | --phone-only]
+[--phone-condition TEXT ...] [--misses]``
 
 Per condition: F1 at ±2 ms (misses counted only for impacts with truth ``local_snr_db >= 0``;
 a detection matching no impact is a false positive; one matching an inaudible impact is
@@ -27,6 +28,10 @@ against the truth, first impact found) and onset by onset against the original's
 share found within 1 ms, the median shift, the decoded audio's offset against the original
 (cross-correlation: the priming taken off, or not) and the spread of the shifts (1.4826 x MAD,
 an sd), which is the timing floor ``drumroll.audio.timing`` adds to ``sigma_s``.
+``--phone-condition`` runs only the conditions whose label holds the text (``'AAC 128'``);
+``--misses`` lists every onset a condition moves by more than 1 ms or loses, with its level
+and the step of the extractor (tracker or stage) after which the original has it and the
+coded file does not.
 """
 
 from __future__ import annotations
@@ -432,10 +437,76 @@ def onset_shifts(reference: dict, coded: dict, pair_s: float = 0.003
     return total, found, joined(raw), joined(centred)
 
 
-def run_phone(sources: dict[str, tuple[Path, str]]) -> dict[str, dict[str, dict]]:
+def traced_detect(path: Path):
+    """:func:`~drumroll.onsets.detect` on ``path``, with every roll's onset times as the
+    tracker gave them and after each stage of ``drumroll.onsets.detector.STAGES``: returns
+    the table and ``[(stage, times), ...]`` in the order they ran (a stage's times are
+    pooled over the rolls)."""
+    from unittest import mock
+
+    from drumroll.onsets import detector
+
+    log: dict[str, list[np.ndarray]] = {}
+
+    def logged(name: str, stage):
+        def run(roll, *args):
+            out = stage(roll, *args)
+            log.setdefault(name, []).append(out.time_s.copy())
+            return out
+        return run
+
+    initial = detector._initial
+
+    def tracked(c, tr):
+        roll = initial(c, tr)
+        log.setdefault("tracker", []).append(roll.time_s.copy())
+        return roll
+
+    stages = tuple(logged(s.__name__, s) for s in detector.STAGES)
+    with mock.patch.object(detector, "STAGES", stages), \
+            mock.patch.object(detector, "_initial", tracked):
+        table = detector.detect(path)
+    return table, [(name, np.concatenate(parts)) for name, parts in log.items()]
+
+
+def list_misses(condition: str, name: str, original: Path, coded: Path,
+                within: float = 1e-3) -> int:
+    """Print every onset of the lossless ``original`` that the ``coded`` file does not give
+    within ``within`` (s): its number, time, amplitude and SNR (as the original has them),
+    its shift (to the nearest coded onset), and the first step of the extractor after which
+    the original has it (within ``within``) and the coded file does not ("tracker": the
+    candidates and the tracker; a stage of ``detector.STAGES`` otherwise: one that moved the
+    coded file's onset away, or that brought the original's to it and not the coded one).
+    Returns how many."""
+    ref, ref_log = traced_detect(original)
+    table, log = traced_detect(coded)
+    steps = dict(ref_log)
+
+    def nearest(times: np.ndarray, t: float) -> float:
+        return float(times[np.argmin(np.abs(times - t))]) if times.size else np.inf
+
+    count = 0
+    for i, t in enumerate(ref.time_s):
+        shift = nearest(table.time_s, t) - t
+        if abs(shift) <= within:
+            continue
+        count += 1
+        parted = next((stage for stage, times in log if abs(nearest(times, t) - t) > within
+                       and abs(nearest(steps.get(stage, np.zeros(0)), t) - t) <= within),
+                      "the table")
+        print(f"    miss {condition:24s} {name[:26]:26s} #{i:<3d} {t:8.4f} s amplitude "
+              f"{ref.amplitude[i]:.4f} SNR {ref.snr_db[i]:6.1f} dB shift {1e3 * shift:+8.3f} ms"
+              f", parted by {parted}")
+    return count
+
+
+def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None = None,
+              misses: bool = False) -> dict[str, dict[str, dict]]:
     """Every recording of each source ``label -> (folder, pattern)`` through every phone
-    condition, scored side by side with its lossless original; prints the table and the
-    pooled timing floors. Returns ``source -> condition -> row``."""
+    condition (those whose label contains one of ``conditions``, if given), scored side by
+    side with its lossless original; prints the table and the pooled timing floors, and with
+    ``misses`` every onset of the original not found within 1 ms, and what moved it
+    (:func:`list_misses`). Returns ``source -> condition -> row``."""
     out: dict[str, dict[str, dict]] = {}
     pooled: dict[str, list[np.ndarray]] = {}
     with warnings.catch_warnings():
@@ -449,6 +520,8 @@ def run_phone(sources: dict[str, tuple[Path, str]]) -> dict[str, dict[str, dict]
             rows = {"lossless original": dict(row, found=1.0, shift_ms=0.0, offset_ms=0.0,
                                               sd_ms=0.0)}
             for condition, (kind, arg) in PHONE_CONDITIONS.items():
+                if conditions and not any(c.lower() in condition.lower() for c in conditions):
+                    continue
                 with tempfile.TemporaryDirectory() as tmp:
                     tmp_dir = Path(tmp)
                     offsets = []
@@ -463,6 +536,14 @@ def run_phone(sources: dict[str, tuple[Path, str]]) -> dict[str, dict[str, dict]
                         offsets.append(decoded_offset_ms(audio[0], coded))
                     tables: dict = {}
                     scored = score_folder(tmp_dir, "*", tables=tables, verbose=False) or {}
+                    if misses:
+                        for name in reference:
+                            coded = [p for p in tmp_dir.glob(name + ".*")
+                                     if not p.name.endswith(".json")]
+                            original = [p for p in folder.glob(name + ".*") if p.suffix.lower()
+                                        in (".wav", ".flac", ".ogg", ".mp3")]
+                            if coded and original:
+                                list_misses(condition, name, original[0], coded[0])
                 total, found, raw, centred = onset_shifts(reference, tables)
                 pooled.setdefault(condition, []).append((total, found, centred))
                 sd = 1.4826 * float(np.median(np.abs(centred))) if centred.size else np.nan
@@ -697,6 +778,12 @@ def main() -> None:
                        help="skip the phone recordings (codecs, rates, AGC)")
     phone.add_argument("--phone-only", action="store_true",
                        help="only the phone recordings (codecs, rates, AGC)")
+    ap.add_argument("--phone-condition", action="append", metavar="TEXT",
+                    help="only the phone conditions whose label contains TEXT (repeatable; "
+                         "e.g. 'AAC 128', 'Opus 64')")
+    ap.add_argument("--misses", action="store_true",
+                    help="list every onset of a lossless original that a phone condition "
+                         "moves by more than 1 ms or loses, and the stage that did")
     args = ap.parse_args()
     jitter = 1e-3 * args.jitter_ms
     parts: dict[str, dict] = {}
@@ -704,7 +791,7 @@ def main() -> None:
     if args.corpus.is_dir():
         sources = {f"{args.corpus.name} (12 rolls)": (args.corpus, "*"), **sources}
     if args.phone_only:
-        run_phone(sources)
+        run_phone(sources, args.phone_condition, args.misses)
         return
     if args.real_hits_only:
         run_real_grid(args.trials, args.quick, not args.no_peers, args.first_seed, jitter)
@@ -729,7 +816,7 @@ def main() -> None:
             parts["real ping-pong (data/pingpong.wav)"] = row
         side_by_side(parts)
     if not args.no_phone:
-        run_phone(sources)
+        run_phone(sources, args.phone_condition, args.misses)
     throughput()
     if not args.no_memory:
         memory()
