@@ -211,16 +211,15 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
     return FittedRoll(onsets=table, data=data, roll=int(chosen), sizes=sizes, notes=notes)
 
 
-def _fit(config: Config, model: str, data: OnsetData, settings: EstimateSettings, seed: int
+def _fit(log_posterior: LogPosterior, settings: EstimateSettings, seed: int
          ) -> tuple[Chain, Evidence | None, Evidence | None, dict[str, float]]:
-    """Sample one model, and its evidence as ``[sampler] evidence`` asks; runs in a worker
-    process.
+    """Sample one model's ``log_posterior``, and its evidence as ``[sampler] evidence`` asks;
+    runs in a worker process (the log posterior is built once, by the caller, and pickled).
 
     Returns the chain, the evidence used and the other estimate when one was made (see
     :func:`~drumroll.inference.evidence.choose_evidence`; both None without evidence), and
     the seconds each stage took.
     """
-    log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
     started = time.perf_counter()
     chain = run_emcee(log_posterior, replace(settings.sampler, seed=seed),
                       reported=partial(reported_draws, log_posterior, seed))
@@ -351,6 +350,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     started = time.perf_counter()
     seeds = dict(zip(models, (model_seed(settings.sampler.seed, i) for i in range(len(models))),
                      strict=True))
+    posteriors = {m: LogPosterior.build(config, m, data, settings.noise, settings.nu)
+                  for m in models}
     fits: dict[str, ModelFit] = {}
     loos: dict[str, LooResult] = {}
     post_seconds = 0.0
@@ -363,7 +364,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
 
         begun = time.perf_counter()
         chain, evidence, check, fit_seconds = output
-        log_posterior = LogPosterior.build(config, model, data, settings.noise, settings.nu)
+        log_posterior = posteriors[model]
         # The same generator as reported_draws: the stopping check saw these very numbers.
         idata = build_inference_data(log_posterior, chain, np.random.default_rng(seeds[model]))
         fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, check, fit_seconds)
@@ -372,7 +373,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
 
     if workers == 1:
         for model in models:
-            output = _fit(config, model, data, settings, seeds[model])
+            output = _fit(posteriors[model], settings, seeds[model])
             if not fits:
                 _while_sampling(meanwhile)
             finish(model, output)
@@ -382,7 +383,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         # ArviZ, the figures' libraries and so on after, while the workers sample.
         importlib.import_module("emcee")
         with process_pool(workers) as pool:
-            futures = {pool.submit(_fit, config, m, data, settings, seeds[m]): m
+            futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                        for m in models}
             _while_sampling(meanwhile)
             for future in as_completed(futures):

@@ -351,10 +351,9 @@ def test_a_roll_beyond_those_present_is_one_line_before_sampling(two_roll_csv, t
 
 
 def test_runs_files_take_a_roll_per_run(tmp_path, capsys):
-    from tests.unit.table.test_table import BASE, RUN_H80, runs_text, write_onsets
-
     from drumroll.table import load_runs
     from drumroll.table.execute import run_key
+    from tests.unit.table.test_table import BASE, RUN_H80, runs_text, write_onsets
 
     (tmp_path / "base.toml").write_text(BASE)
     write_onsets(tmp_path / "h80.txt", "table2_h80")
@@ -400,10 +399,9 @@ def test_onset_figure_draws_each_roll_and_breaks_at_a_gap(two_roll_csv, tmp_path
 
 
 def test_a_tables_notes_carry_each_runs_notes(tmp_path):
-    from tests.unit.table.test_table import BASE, RUN_H80, fake_row, runs_text, write_onsets
-
     from drumroll.table import format_table, load_runs
     from drumroll.table.execute import TableResult
+    from tests.unit.table.test_table import BASE, RUN_H80, fake_row, runs_text, write_onsets
 
     (tmp_path / "base.toml").write_text(BASE)
     write_onsets(tmp_path / "h80.txt", "table2_h80")
