@@ -392,6 +392,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
+    from drumroll.inference.adequacy import adequacy
     from drumroll.inference.comparison import compare_models
     from drumroll.inference.summary import (
         diagnostics,
@@ -401,9 +402,11 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     )
 
     started = time.perf_counter()
+    adequacies = {m: adequacy(f.idata) for m, f in fits.items()}  # on every draw
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
-    rows, preferred, verdict, loos = compare_models({m: f.idata for m, f in fits.items()},
-                                                    config.model, evidences, loos)
+    rows, preferred, verdict, loos = compare_models(
+        {m: f.idata for m, f in fits.items()}, config.model, evidences, loos,
+        inadequate=[m for m, a in adequacies.items() if a.adequate is False])
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
@@ -418,6 +421,11 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                 model_diagnostics[m] = replace(
                     model_diagnostics[m],
                     warnings=(*model_diagnostics[m].warnings, f"{m}: {warning}"))
+    for m, checked in adequacies.items():
+        misfit = checked.misfit(m)
+        if misfit:
+            model_diagnostics[m] = replace(
+                model_diagnostics[m], warnings=(misfit, *model_diagnostics[m].warnings))
     models_summary: dict[str, ModelSummary] = {}
     observed = observed_flights(main.idata)
     for model, fit in fits.items():
@@ -427,7 +435,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                                                                             settings.hdi_prob)
         fit.stats = stats
         models_summary[model] = ModelSummary(parameters=stats,
-                                             flights=flight_series(fit.idata, settings.hdi_prob))
+                                             flights=flight_series(fit.idata, settings.hdi_prob),
+                                             adequacy=adequacies[model])
         for name, values in fit.idata.posterior.data_vars.items():
             # For the readers of posterior.nc, whose draws are thinned below.
             values.attrs.update({key: getattr(stats[name], key) for key in (

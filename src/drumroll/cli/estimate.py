@@ -127,6 +127,9 @@ def terminal_table(result: Result) -> str:
     parameters = summary.parameters
     hdi = next(iter(parameters.values())).hdi_prob
     lines = [f"note: {note}" for note in summary.notes]
+    misfit = summary.misfit
+    if misfit:  # before any number: the numbers below describe a model that does not fit
+        lines.append(f"warning: {misfit}")
     lines += [f"{summary.model}: {summary.n_onsets} onsets",
               f"{'parameter':<22} {'mean ± sd':>22} {f'{hdi:.0%} interval':>24} "
               f"{'R-hat':>7} {'ESS':>6}"]
@@ -141,9 +144,10 @@ def terminal_table(result: Result) -> str:
         r_hat = "—" if p.r_hat is None else f"{p.r_hat:.4f}"
         ess = "—" if p.ess_bulk is None else f"{min(p.ess_bulk, p.ess_tail or math.inf):.0f}"
         lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>7} {ess:>6}")
-    lines += [f"warning: {warning}" for warning in summary.warnings]
+    lines += [f"warning: {warning}" for warning in summary.warnings if warning != misfit]
     lines.append("")
     preferred = summary.preferred
-    lines.append(f"preferred: {preferred if preferred else 'none (the data cannot tell)'}")
+    why = "the model does not describe the onsets" if misfit else "the data cannot tell"
+    lines.append(f"preferred: {preferred if preferred else f'none ({why})'}")
     lines.append(f"verdict: {summary.verdict}")
     return "\n".join(lines)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import arviz as az
@@ -92,11 +93,16 @@ def decide(elpd_diff: float, elpd_diff_se: float, log_bf: float | None = None,
 
 def compare_models(idatas: dict[str, az.InferenceData], main: str,
                    evidences: dict[str, Evidence] | None = None,
-                   loos: dict[str, LooResult] | None = None
+                   loos: dict[str, LooResult] | None = None,
+                   inadequate: Collection[str] = ()
                    ) -> tuple[tuple[ComparisonRow, ...], str | None, str,
                               dict[str, LooResult]]:
     """Compare ``main`` with every other fitted model (``loos``: each model's PSIS-LOO where
     already computed, see :func:`loo`).
+
+    A model in ``inadequate`` (its residuals fail :mod:`~drumroll.inference.adequacy`'s
+    checks) is never the preferred one: that it fits better than the others does not make it
+    right, and the verdict says so.
 
     Returns
     -------
@@ -127,6 +133,12 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
                                    diff, diff_se, log_bf, log_bf_err))
     preferred = _preferred(main, rows)
     verdict = "; ".join(sentences) if sentences else "no other model was fitted"
+    if preferred is not None and preferred in inadequate:
+        misfit = (f"{preferred} does not describe the onsets (its residuals fail the adequacy "
+                  "checks)")
+        verdict = (f"{verdict}; but {misfit}, so no model is preferred" if rows
+                   else f"{verdict}, and {misfit}")
+        preferred = None
     return tuple(rows), preferred, verdict, loos
 
 

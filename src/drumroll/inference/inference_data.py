@@ -5,9 +5,9 @@ Groups: ``posterior`` (sampled parameters and derived quantities, under the summ
 ``release_angle_deg``, ``jitter_ms``, ``t0_s``, …), ``prior``, ``log_likelihood``
 (``onset_time``, per onset, for PSIS-LOO: with Gaussian noise the conditional
 log p(t_i | t_{-i}, θ) of :mod:`drumroll.inference.loo`), ``posterior_predictive`` (replicated
-``onset_time`` and the noise-free ``flight_time_model``), ``observed_data``,
-``constant_data`` (the extractor's ``onset_sigma_s``) and ``sample_stats`` (``lp``).
-Walkers are ArviZ's chains.
+``onset_time``, and the noise-free ``onset_time_model`` and ``flight_time_model``),
+``observed_data``, ``constant_data`` (the extractor's ``onset_sigma_s``) and ``sample_stats``
+(``lp``). Walkers are ArviZ's chains.
 
 Coordinates: ``onset`` holds each observed onset's bounce number k (0, 1, 2, … when none is
 missing; a gap where an impact was not heard), ``flight`` the model's flights 1 … K up to the
@@ -86,14 +86,15 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
     if log_posterior.noise == "student-t":
         nu = np.broadcast_to(np.asarray(values["nu"], float), scale.shape[:1])[:, None]
         noise = scale * rng.standard_t(nu, size=scale.shape)
-    predicted = (_flat(t0[..., None]) + data.at_onsets(_flat(impacts)) + noise
-                 ).reshape(pointwise.shape)
+    model_times = _flat(t0[..., None]) + data.at_onsets(_flat(impacts))
+    predicted = (model_times + noise).reshape(pointwise.shape)
     flights = np.diff(impacts, axis=-1)
 
     prior_samples = log_posterior.space.sample_prior(rng, n_prior)
     prior_variables, _, _ = parameter_draws(log_posterior, prior_samples[None], rng)
     coords = {"onset": data.bounces, "flight": np.arange(1, data.n_flights + 1)}
-    dims = {"onset_time": ["onset"], "flight_time_model": ["flight"], "onset_sigma_s": ["onset"]}
+    dims = {"onset_time": ["onset"], "onset_time_model": ["onset"],
+            "flight_time_model": ["flight"], "onset_sigma_s": ["onset"]}
     import arviz as az
 
     with warnings.catch_warnings():
@@ -102,7 +103,9 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
         warnings.filterwarnings("ignore", message="More chains", category=UserWarning)
         idata = az.from_dict(
             posterior=variables,
-            posterior_predictive={"onset_time": predicted, "flight_time_model": flights},
+            posterior_predictive={"onset_time": predicted,
+                                  "onset_time_model": model_times.reshape(pointwise.shape),
+                                  "flight_time_model": flights},
             log_likelihood={"onset_time": pointwise},
             observed_data={"onset_time": data.times},
             constant_data={"onset_sigma_s": data.sigmas},

@@ -192,14 +192,64 @@ class ObservedFlights(Record):
 
 
 @dataclass(frozen=True)
-class ModelSummary(Record):
-    """One fitted model: its posterior summaries by quantity key, and its flights."""
+class AdequacyCheck(Record):
+    """One posterior predictive check of the residuals (:mod:`drumroll.inference.adequacy`):
+    the statistic's posterior mean for the observed onsets and for replicated ones, and the
+    p-value."""
+
+    observed: float | None = None
+    replicated: float | None = None
+    p_value: float | None = None
+
+
+@dataclass(frozen=True)
+class Adequacy(Record):
+    """Whether a model describes the onsets: its checks by statistic name, and ``adequate``
+    (every p-value at least ``level``; None when the roll is too short to check)."""
 
     nested: ClassVar[dict[str, tuple[type[Record], str]]] = {
-        "parameters": (ParameterSummary, "dict"), "flights": (FlightSeries, "one")}
+        "checks": (AdequacyCheck, "dict")}
+
+    checks: dict[str, AdequacyCheck] = field(default_factory=dict)
+    adequate: bool | None = None
+    level: float = 0.01
+
+    def misfit(self, model: str) -> str | None:
+        """One sentence saying that ``model`` does not describe the onsets, and how it shows;
+        None when it does (or could not be checked)."""
+        if self.adequate is not False:
+            return None
+        shown = []
+        lag = self.checks.get("lag1_autocorrelation")
+        if lag is not None and lag.p_value is not None and lag.p_value < self.level:
+            shown.append(f"neighbouring residuals correlate at {lag.observed:.2f} where the "
+                         f"model's own noise gives {lag.replicated:.2f} ({_p(lag.p_value)})")
+        runs = self.checks.get("sign_runs")
+        if runs is not None and runs.p_value is not None and runs.p_value < self.level:
+            shown.append(f"they change sign in {runs.observed:.0f} runs where the model's "
+                         f"noise gives {runs.replicated:.0f} ({_p(runs.p_value)})")
+        return (f"{model} does not describe these onsets: {'; '.join(shown)}. Its error bars "
+                "describe the model, not the bouncer (a restitution that changes with speed "
+                "or from bounce to bounce, or a mis-numbered bounce, leaves this pattern)")
+
+
+def _p(value: float) -> str:
+    """A p-value in words: ``p = 0.004``, or ``p < 0.001``."""
+    return "p < 0.001" if value < 0.001 else f"p = {value:.3f}"
+
+
+@dataclass(frozen=True)
+class ModelSummary(Record):
+    """One fitted model: its posterior summaries by quantity key, its flights, and whether it
+    describes the onsets (:class:`Adequacy`)."""
+
+    nested: ClassVar[dict[str, tuple[type[Record], str]]] = {
+        "parameters": (ParameterSummary, "dict"), "flights": (FlightSeries, "one"),
+        "adequacy": (Adequacy, "one")}
 
     parameters: dict[str, ParameterSummary] = field(default_factory=dict)
     flights: FlightSeries = field(default_factory=FlightSeries)
+    adequacy: Adequacy | None = None
 
 
 @dataclass(frozen=True)
@@ -269,6 +319,13 @@ class Summary(Record):
     source: str | None = None
     version: str = ""
     seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def misfit(self) -> str | None:
+        """The main model's misfit (see :meth:`Adequacy.misfit`): said before any number."""
+        fitted = self.models.get(self.model)
+        return None if fitted is None or fitted.adequacy is None else \
+            fitted.adequacy.misfit(self.model)
 
     @property
     def warnings(self) -> list[str]:

@@ -168,10 +168,40 @@ def comparison_section(summary: Summary) -> list[str]:
         lines.append(f"**Preferred model:** {model_name(summary.preferred)} "
                      f"(`{summary.preferred}`).")
     elif rows:
-        lines.append("**Preferred model:** none; the data do not decide between the models.")
+        lines.append("**Preferred model:** none (the verdict below says why).")
     if summary.verdict:
         lines += ["", summary.verdict]
     lines.append("")
+    return lines
+
+
+def adequacy_section(summary: Summary) -> list[str]:
+    """Markdown lines of each model's posterior predictive checks of its residuals."""
+    checked = {m: s.adequacy for m, s in summary.models.items()
+               if s.adequacy is not None and s.adequacy.checks}
+    if not checked:
+        return []
+    level = next(iter(checked.values())).level
+    lines = ["## Does each model describe the onsets?", "",
+             "| model | residuals' lag-1 correlation (model's noise) | p | runs of one sign "
+             "(model's noise) | p | describes the onsets |", "|---|---:|---:|---:|---:|---|"]
+    for model, adequacy in checked.items():
+        lag = adequacy.checks.get("lag1_autocorrelation")
+        runs = adequacy.checks.get("sign_runs")
+        cells = [f"{model_name(model)} (`{model}`)"]
+        for check, digits in ((lag, 2), (runs, 1)):
+            if check is None or check.observed is None or check.replicated is None:
+                cells += ["—", "—"]
+                continue
+            cells += [f"{check.observed:.{digits}f} ({check.replicated:.{digits}f})",
+                      "—" if check.p_value is None else f"{check.p_value:.3f}"]
+        cells.append("yes" if adequacy.adequate else "**no**")
+        lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
+    lines += ["", "Posterior predictive checks: each statistic of the standardised residuals "
+              "against the same statistic of residuals replicated from the model's own noise, "
+              f"draw by draw; a model fails when either p-value is below {level:g}. Neighbouring "
+              "residuals that share a sign and a size (a high correlation, few runs) are a "
+              "pattern the model leaves out, not timing noise.", ""]
     return lines
 
 
@@ -272,6 +302,9 @@ def render_report(summary: Summary, figures: dict[str, Path | str] | None = None
         facts.append(f"drumroll {summary.version}")
     lines += [", ".join(facts) + ".", ""]
     lines += notes_section(summary.notes)
+    misfit = summary.misfit
+    if misfit:  # said before any number
+        lines += [f"> **⚠ The model does not fit.** {misfit}.", ""]
     headline = _headline(summary)
     if headline:
         lines += [headline, ""]
@@ -279,6 +312,7 @@ def render_report(summary: Summary, figures: dict[str, Path | str] | None = None
     lines += parameter_table(summary.parameters, model, summary.diagnostics.get(model))
     lines.append("")
     lines += comparison_section(summary)
+    lines += adequacy_section(summary)
     lines += diagnostics_section(summary.diagnostics)
     lines += figures_section(figures or {}, Path(report_dir))
     details = onsets_section(summary.onsets) + config_section(summary.config)
