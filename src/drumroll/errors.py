@@ -34,5 +34,17 @@ class AudioError(DrumrollError):
     """An audio file that cannot be read or holds nothing usable."""
 
 
+class OnsetsOutsidePriors(DrumrollError):
+    """Onsets that no parameter value the priors allow can produce (every prior draw gives
+    them zero probability): times in the wrong unit, or priors whose ranges miss the roll."""
+
+    def __init__(self, model: str) -> None:
+        super().__init__(
+            f"{model}: no parameter value drawn from the priors gives these onsets a nonzero "
+            "probability; check that the times are in seconds from the start of the "
+            "recording, in order, and that the priors' ranges (t_b, alpha, jitter_ms, the "
+            "geometry) include this roll")
+
+
 class DrumrollWarning(UserWarning):
     """Something the user should know about that does not stop the work (clipping, say)."""

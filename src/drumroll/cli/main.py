@@ -65,6 +65,10 @@ def _one_blas_thread() -> None:
         os.environ.setdefault(variable, "1")
 
 
+#: The option that shows an internal error's traceback instead of one line.
+DEBUG_OPTION = "--debug"
+
+
 def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[str] | None
             ) -> int:
     """Parse ``argv`` with the parser ``make_parser`` builds and run the chosen command,
@@ -74,7 +78,11 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     """
     _one_blas_thread()
     parser = make_parser()
-    args = parser.parse_args(argv)
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an internal error (anywhere on the line)")
+    arguments = list(sys.argv[1:] if argv is None else argv)
+    debug = DEBUG_OPTION in arguments  # understood after a subcommand too
+    args = parser.parse_args([a for a in arguments if a != DEBUG_OPTION])
     warnings.showwarning = _show_warning
     _without_numba()
     try:
@@ -87,6 +95,14 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         return 130
     except BrokenPipeError:  # e.g. `drumroll predict cfg.toml | head`
         return 0
+    except Exception as exc:  # a fault of ours, not of the input: one line, exit 1
+        if debug:
+            raise
+        what = " ".join(f"{type(exc).__name__}: {exc}".split())
+        print(f"{parser.prog}: internal error (a bug in drumroll; please report it with the "
+              f"command and its input): {what[:300]}; {DEBUG_OPTION} shows the traceback",
+              file=sys.stderr)
+        return 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize
 
+from drumroll.errors import OnsetsOutsidePriors
 from drumroll.inference.posterior import LogPosterior
 
 
@@ -28,7 +29,7 @@ def find_mode(log_posterior: LogPosterior, rng: np.random.Generator, n_starts: i
     values = log_posterior(candidates)
     finite = np.isfinite(values)
     if not finite.any():
-        raise ValueError("no draw from the prior has a finite posterior")
+        raise OnsetsOutsidePriors(space.model)
     order = np.argsort(values[finite])[::-1]
     starts = candidates[finite][order[:n_starts]]
     scale = np.std(candidates[finite], axis=0)

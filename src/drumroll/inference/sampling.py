@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize
 
+from drumroll.errors import OnsetsOutsidePriors
 from drumroll.inference.convergence import diagnose, integrated_time
 from drumroll.inference.coordinates import SamplerCoordinates
 from drumroll.inference.posterior import LogPosterior
@@ -165,7 +166,7 @@ def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 
     density = target(z)
     finite = np.isfinite(density)
     if not finite.any():
-        raise ValueError("no draw from the prior has a finite posterior")
+        raise OnsetsOutsidePriors(space.model)
     z, density = z[finite], density[finite]
     spread = np.std(z, axis=0)
     spread = np.where(spread > 0, spread, 1.0)

@@ -1,0 +1,59 @@
+"""What a user sees when something goes wrong after the input parsed: one line, the right exit
+status, no traceback (``--debug`` shows one)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import drumroll.pipeline
+from configs import BALL_CONFIG
+from drumroll.cli.main import main
+
+
+def _roll(path, times):
+    path.write_text("time_s\n" + "\n".join(repr(float(t)) for t in times) + "\n")
+    return path
+
+
+@pytest.fixture
+def ball(tmp_path):
+    config = tmp_path / "ball.toml"
+    config.write_text(BALL_CONFIG)
+    flights = 0.2 * 0.9 ** np.arange(15)
+    times = np.concatenate([[0.5], 0.5 + np.cumsum(flights)])
+    return config, times
+
+
+def test_onsets_no_prior_allows_are_one_line_exit_2(tmp_path, capsys, ball):
+    # A roll with a last "onset" at 1e308 s: every flight the priors allow gives it zero
+    # probability (it used to end in a ValueError traceback, exit 1).
+    config, times = ball
+    onsets = _roll(tmp_path / "huge.csv", [*times, 1e308])
+    code = main(["estimate", str(onsets), "--prior", str(config), "-o", str(tmp_path / "o"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert err.startswith("drumroll: error: powerlaw: no parameter value drawn from the priors")
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_internal_fault_is_one_line_exit_1_and_debug_shows_it(tmp_path, capsys, ball,
+                                                                   monkeypatch):
+    # A fault injected where a bug of ours would be (no input reaches it: each one found is
+    # fixed): the command says it is ours, in one line, and --debug gives the traceback.
+    config, times = ball
+    onsets = _roll(tmp_path / "roll.csv", times)
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero\nsecond line")
+
+    monkeypatch.setattr(drumroll.pipeline, "estimate", broken)
+    command = ["estimate", str(onsets), "--prior", str(config), "-o", str(tmp_path / "o"), "-q"]
+    assert main(command) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("drumroll: internal error (a bug in drumroll")
+    assert "ZeroDivisionError: float division by zero second line" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    with pytest.raises(ZeroDivisionError):
+        main([*command, "--debug"])
