@@ -16,6 +16,9 @@ from concurrent.futures import ProcessPoolExecutor
 
 def _ignore_interrupt() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # The parent's SIGTERM handler (drumroll.cli.main) is inherited by a forked worker; a
+    # worker must simply end on SIGTERM, which is how the parent stops it.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 @contextlib.contextmanager

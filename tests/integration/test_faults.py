@@ -3,12 +3,19 @@ status, no traceback (``--debug`` shows one)."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
+
 import numpy as np
 import pytest
 
 import drumroll.pipeline
 from configs import BALL_CONFIG
 from drumroll.cli.main import main
+from paths import DATA
 
 
 def _roll(path, times):
@@ -57,3 +64,36 @@ def test_an_internal_fault_is_one_line_exit_1_and_debug_shows_it(tmp_path, capsy
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     with pytest.raises(ZeroDivisionError):
         main([*command, "--debug"])
+
+
+@pytest.mark.parametrize("stage", ["sampling", "writing"])
+def test_sigterm_stops_everything_and_keeps_nothing_half_written(tmp_path, stage):
+    """SIGTERM, as a process manager or `kill` sends it, in the middle of the sampling (two
+    worker processes) or of the writing (figure workers, a staged posterior.nc): one line,
+    exit 143, no process of the command left running, no output folder or staging left."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "drumroll", "estimate", str(DATA / "table2_h80.flac"),
+         "--prior", str(DATA / "table2_h80.toml"), "-o", str(out)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    lines = []
+    for line in proc.stderr:
+        lines.append(line)
+        if line.startswith(stage):
+            break
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGTERM)
+    rest = proc.stderr.read()
+    assert proc.wait(timeout=60) == 143, "".join(lines) + rest
+    assert rest.strip().splitlines()[-1] == "drumroll: terminated; no partial output was kept"
+    assert "Traceback" not in rest
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:  # the workers end with their parent
+        try:
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        pytest.fail("processes of the command still run after it ended")
+    assert not out.exists()

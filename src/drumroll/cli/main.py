@@ -10,7 +10,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Sequence
 
@@ -65,6 +67,23 @@ def _one_blas_thread() -> None:
         os.environ.setdefault(variable, "1")
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command is, so that it ends as a Ctrl-C does: workers
+    stopped, staged files removed, one line."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated
+
+
+def _terminate_as_interrupt():
+    """Handle SIGTERM as Ctrl-C is handled (in the main thread only: a signal handler can be
+    set nowhere else); returns the handler it replaced, or None."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
+
+
 #: The option that shows an internal error's traceback instead of one line.
 DEBUG_OPTION = "--debug"
 
@@ -85,14 +104,16 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     args = parser.parse_args([a for a in arguments if a != DEBUG_OPTION])
     warnings.showwarning = _show_warning
     _without_numba()
+    previous = _terminate_as_interrupt()
     try:
         return int(args.func(args) or 0)
     except DrumrollError as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code
-    except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; no partial output was kept", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        how = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        print(f"{parser.prog}: {how}; no partial output was kept", file=sys.stderr)
+        return 128 + signal.SIGTERM if isinstance(exc, Terminated) else 130
     except BrokenPipeError:  # e.g. `drumroll predict cfg.toml | head`
         return 0
     except Exception as exc:  # a fault of ours, not of the input: one line, exit 1
@@ -103,6 +124,9 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
               f"command and its input): {what[:300]}; {DEBUG_OPTION} shows the traceback",
               file=sys.stderr)
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
