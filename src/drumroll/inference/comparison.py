@@ -150,18 +150,19 @@ def _preferred(main: str, rows: list[ComparisonRow]) -> str | None:
     if all(o == 1 for o in outcomes.values()):
         return main
     winners = [m for m, o in outcomes.items() if o == -1]
-    if len(winners) == 1:
-        # The winner must also beat the remaining models: compare through the main model.
-        winner = winners[0]
-        w = next(r for r in rows if r.model == winner)
+    if winners:
+        # The best of the models that beat the main one must also beat the remaining
+        # models: compare through the main model (winner − other = (main − other) −
+        # (main − winner)).
+        w = min((r for r in rows if r.model in winners), key=lambda r: r.elpd_loo_diff)
         for row in rows:
-            if row.model == winner:
+            if row.model == w.model:
                 continue
             diff = row.elpd_loo_diff - w.elpd_loo_diff
             se = math.hypot(row.elpd_loo_diff_se, w.elpd_loo_diff_se)
-            if _sign(-diff, se, LOO_MIN_DIFF) != 1:
+            if _sign(diff, se, LOO_MIN_DIFF) != 1:
                 return None
-        return winner
+        return w.model
     return None
 
 
