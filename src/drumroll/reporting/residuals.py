@@ -5,7 +5,8 @@ with the 90 % posterior predictive band (replicated onsets, jitter included) aro
 median, and a darker band for the model's own (noise-free) uncertainty. A model that
 describes the bounces leaves residuals scattered evenly inside the band; a model that
 does not leaves a structured pattern (a wave, a trend; a lag-1 correlation near 1) and needs
-a large jitter to cover it: then the model, not the microphone, is the limit. The panels
+a large jitter to cover it: then the model, not the microphone, is the limit. Each title quotes
+the model's adequacy check (:mod:`drumroll.inference.adequacy`) as the summary gives it. The panels
 share the time axis; each has its own (symmetric) residual scale, quoted in its title as the
 rms residual and the fitted jitter, so that the scatter of a good fit is not squashed flat.
 The x axis is the bounce number k, so a missing bounce shows as a gap between the points.
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from drumroll.inference.inference_data import observed_bounces, observed_onsets
+from drumroll.inference.results import Adequacy
 from drumroll.reporting.plot_style import (
     BAND,
     DATA_COLOR,
@@ -31,17 +33,6 @@ from drumroll.reporting.plot_style import (
     style,
 )
 from drumroll.stats import central_band
-
-
-def noise_free_onsets(idata) -> np.ndarray | None:
-    """Draws of the model's noise-free impact times t0 + Σ_{j ≤ k} T_j at every bounce
-    k = 0 … K, (draws, K + 1); None if absent."""
-    if "t0_s" not in idata.posterior or "flight_time_model" not in idata.posterior_predictive:
-        return None
-    t0 = flat_draws(idata, "posterior", "t0_s")
-    flights = flat_draws(idata, "posterior_predictive", "flight_time_model")
-    zeros = np.zeros((flights.shape[0], 1))
-    return t0[:, None] + np.concatenate((zeros, np.cumsum(flights, axis=1)), axis=1)
 
 
 def onset_residuals(idata) -> dict[str, np.ndarray]:
@@ -61,23 +52,11 @@ def onset_residuals(idata) -> dict[str, np.ndarray]:
     bounces = observed_bounces(idata)
     out = {"time": times, "bounce": bounces, "residual": times - mid, "sigma": sigmas,
            "pp_lo": lo - mid, "pp_hi": hi - mid}
-    model = noise_free_onsets(idata)
-    if model is not None and model.shape[1] > bounces[-1]:
-        m_lo, _, m_hi = central_band(model[:, bounces])
+    if "onset_time_model" in idata.posterior_predictive:
+        model = flat_draws(idata, "posterior_predictive", "onset_time_model")
+        m_lo, _, m_hi = central_band(model)
         out["model_lo"], out["model_hi"] = m_lo - mid, m_hi - mid
     return out
-
-
-def lag_one_correlation(residual: np.ndarray) -> float:
-    """Correlation of successive residuals: near 0 (within ±2/√n) for noise, near 1 for a
-    smooth pattern the model misses. NaN for fewer than four onsets."""
-    r = np.asarray(residual, float)
-    r = r[np.isfinite(r)]
-    if r.size < 4:
-        return float("nan")
-    r = r - r.mean()
-    denominator = float(np.sum(r * r))
-    return float(np.sum(r[1:] * r[:-1]) / denominator) if denominator > 0 else float("nan")
 
 
 def _every_bounce(bounces: np.ndarray):
@@ -93,8 +72,11 @@ def _every_bounce(bounces: np.ndarray):
     return k, at
 
 
-def draw_residuals(idatas: dict, main_model: str | None = None):
-    """Build the residual figure (a :class:`matplotlib.figure.Figure`), one panel per model."""
+def draw_residuals(idatas: dict, main_model: str | None = None,
+                   adequacy: dict[str, Adequacy | None] | None = None):
+    """Build the residual figure (a :class:`matplotlib.figure.Figure`), one panel per model,
+    each titled with its adequacy check when ``adequacy`` gives it (the residuals' lag-1
+    correlation against the model's own noise, and the p-value)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     from matplotlib.ticker import MaxNLocator
@@ -126,9 +108,13 @@ def draw_residuals(idatas: dict, main_model: str | None = None):
             text += f", jitter σ = {float(np.median(idata.posterior['jitter_ms'])):.2g} ms"
         outside = int(np.sum((r["residual"] < r["pp_lo"]) | (r["residual"] > r["pp_hi"])))
         text += f", {outside}/{t.size} outside the band"
-        lag1 = lag_one_correlation(r["residual"])
-        if np.isfinite(lag1):
-            text += f", lag-1 correlation {lag1:.2f}"
+        checked = (adequacy or {}).get(model)
+        lag = checked.checks.get("lag1_autocorrelation") if checked is not None else None
+        if lag is not None and lag.observed is not None and lag.p_value is not None:
+            text += (f"\nresiduals' lag-1 correlation {lag.observed:.2f} (the noise's "
+                     f"{lag.replicated:.2f}, "
+                     f"p {'< 0.001' if lag.p_value < 0.001 else f'= {lag.p_value:.3f}'})"
+                     + ("" if checked.adequate is not False else ": the model misses a pattern"))
         top = 1.08 * ms * float(np.nanmax(np.abs(np.concatenate(
             (r["residual"] + r["sigma"], r["residual"] - r["sigma"], r["pp_lo"], r["pp_hi"])))))
         if top > 0:
@@ -153,8 +139,9 @@ def draw_residuals(idatas: dict, main_model: str | None = None):
 
 
 def plot_residuals(idatas: dict, path: str | os.PathLike[str], main_model: str | None = None,
-                   *, overwrite: bool = False) -> Path:
+                   *, adequacy: dict[str, Adequacy | None] | None = None,
+                   overwrite: bool = False) -> Path:
     """Write ``residuals.png`` (see :func:`draw_residuals`) to ``path`` atomically."""
     with style():
-        fig = draw_residuals(idatas, main_model)
+        fig = draw_residuals(idatas, main_model, adequacy)
     return save_figure(fig, path, overwrite=overwrite)
