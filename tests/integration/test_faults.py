@@ -97,3 +97,23 @@ def test_sigterm_stops_everything_and_keeps_nothing_half_written(tmp_path, stage
     else:
         pytest.fail("processes of the command still run after it ended")
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("rows", "message"), [
+    ("time_s\n-0.5\n0.5\n0.7\n0.88\n1.04\n", "onset time -0.5 s is negative"),
+    ("time_s,sigma_s\n0.5,0.0001\n0.7,-0.001\n0.88,0.0001\n1.04,0.0001\n",
+     "sigma_s -0.001 is not a timing error"),
+    ("time_s,sigma_s\n0.5,0.0001\n0.7,nan\n0.88,0.0001\n1.04,0.0001\n",
+     "sigma_s nan is not a timing error"),
+])
+def test_onset_lists_that_are_no_recording_are_refused_before_any_work(tmp_path, capsys, ball,
+                                                                       rows, message):
+    # Each was fitted with exit 0 and plausible numbers (a negative sigma_s set to 0).
+    config, _ = ball
+    onsets = tmp_path / "onsets.csv"
+    onsets.write_text(rows)
+    code = main(["estimate", str(onsets), "--prior", str(config), "-o", str(tmp_path / "o"),
+                 "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()

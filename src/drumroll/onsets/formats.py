@@ -97,8 +97,16 @@ def read_onsets(path: str | os.PathLike[str]) -> OnsetTable:
     table.source = str(path)
     if table.time_s.size and not np.isfinite(table.time_s).all():
         raise DrumrollError(f"{path}: onset times must be finite numbers")
+    if np.any(table.time_s < 0):
+        raise DrumrollError(f"{path}: onset time {table.time_s.min():g} s is negative: times "
+                            "are seconds from the start of the recording")
     if np.any(np.diff(np.sort(table.time_s)) == 0):
         raise DrumrollError(f"{path}: the same onset time appears twice")
+    sigma = np.asarray(table.sigma_s, float)
+    if sigma.size and not (np.isfinite(sigma).all() and np.all(sigma >= 0)):
+        bad = sigma[~(np.isfinite(sigma) & (sigma >= 0))][0]
+        raise DrumrollError(f"{path}: sigma_s {bad:g} is not a timing error (a standard "
+                            "deviation in seconds: finite, 0 or more)")
     return table
 
 
