@@ -36,8 +36,40 @@ def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False) -> 
         raise DrumrollError(f"{path}: is a directory, expected a file name to write")
     if path.exists() and not overwrite:
         raise DrumrollError(f"{path}: already exists (use --force to overwrite it)")
-    if not path.parent.exists():
-        raise DrumrollError(f"{path.parent}: no such directory")
+    check_folder_writable(path.parent)
+    return path
+
+
+def check_folder_writable(folder: str | os.PathLike[str]) -> Path:
+    """Refuse a folder that does not exist, is not a folder, or where a file cannot be made.
+
+    The test is to make (and remove) a file there: permissions alone do not tell (root
+    ignores them; a read-only mount or /proc refuses root too)."""
+    folder = Path(folder)
+    if not folder.exists():
+        raise DrumrollError(f"{folder}: no such directory")
+    if not folder.is_dir():
+        raise DrumrollError(f"{folder}: is not a directory")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".drumroll-probe-"):
+            pass
+    except OSError as exc:
+        raise DrumrollError(f"{folder}: cannot write there ({exc.strerror or exc})") from None
+    return folder
+
+
+#: Figure files the commands write, by suffix (what matplotlib's Agg, PDF, SVG and PS
+#: backends write without further packages).
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff",
+                   ".webp")
+
+
+def check_figure_suffix(path: str | os.PathLike[str]) -> Path:
+    """Refuse a figure file name whose suffix names no format a figure can be written in."""
+    path = Path(path)
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise DrumrollError(f"{path}: a figure is written as {', '.join(FIGURE_SUFFIXES)}; "
+                            f"{path.suffix or 'no suffix'} is none of them")
     return path
 
 

@@ -117,3 +117,58 @@ def test_onset_lists_that_are_no_recording_are_refused_before_any_work(tmp_path,
     err = capsys.readouterr().err
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def _estimate(tmp_path, ball, *options):
+    config, times = ball
+    onsets = _roll(tmp_path / "roll.csv", times)
+    return main(["estimate", str(onsets), "--prior", str(config), "-q", *options])
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--seed", "-5"], "argument --seed: must be at least 0, got -5"),
+    (["-o", "{tmp}/roll.csv/out"], "roll.csv: is not a directory"),
+    (["-o", "/proc/drumroll-out"], "/proc: cannot write there"),
+    (["--truth", "{tmp}/array.json"], "array.json: not a truth file"),
+])
+def test_estimate_options_are_checked_before_any_work(tmp_path, capsys, ball, options,
+                                                      message):
+    # Each ended in an internal error (or a traceback) after the sampling, or not at all.
+    (tmp_path / "array.json").write_text("[1, 2]")
+    options = [o.format(tmp=tmp_path) for o in options]
+    if "-o" not in options:
+        options += ["-o", str(tmp_path / "out")]
+    try:
+        code = _estimate(tmp_path, ball, *options)
+    except SystemExit as exc:  # argparse's usage errors
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2
+    assert message in err and "Traceback" not in err and "internal error" not in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("arguments", "message"), [
+    (["--plot", "{tmp}/p.xyz", "-o", "{tmp}/o.csv"], "p.xyz: a figure is written as"),
+    (["-o", "{tmp}/x.csv", "--labels", "{tmp}/x.csv"], "name the same file"),
+    (["--highpass", "-10"], "argument --highpass: must be a finite number above 0"),
+    (["--threshold", "nan"], "argument --threshold: must be a finite number above 0"),
+])
+def test_onsets_options_are_checked_before_anything_is_written(tmp_path, capsys, arguments,
+                                                               message):
+    arguments = [a.format(tmp=tmp_path) for a in arguments]
+    try:
+        code = main(["onsets", str(DATA / "table2_h80.flac"), *arguments])
+    except SystemExit as exc:  # argparse's usage errors
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "internal error" not in err
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.parametrize("arguments", [["--draws", "1000000000"], ["-n", "1000000"]])
+def test_predict_refuses_what_would_not_fit_in_memory(tmp_path, capsys, arguments):
+    # --draws 1e9 was killed for want of memory (exit 137); -n 1e6 a MemoryError.
+    assert main(["predict", str(DATA / "table2_h80.toml"), *arguments]) == 2
+    err = capsys.readouterr().err
+    assert "more than 5e+07" in err and len(err.strip().splitlines()) == 1

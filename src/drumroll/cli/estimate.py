@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "2, …; default 0, the first)")
     parser.add_argument("--truth", type=Path, help="truth JSON of a simulated recording "
                         "(drawn on the corner plot)")
-    parser.add_argument("--seed", type=int, help="override [sampler] seed")
+    parser.add_argument("--seed", type=non_negative_int, help="override [sampler] seed")
     parser.add_argument("--workers", type=positive_int, metavar="N",
                         help="processes fitting models side by side")
     parser.add_argument("--no-evidence", action="store_true",
@@ -64,9 +64,14 @@ def _truths(path: Path | None) -> dict[str, float] | None:
         raise DrumrollError(f"{path}: no such truth file") from None
     except (OSError, ValueError) as exc:
         raise DrumrollError(f"{path}: not a truth JSON file ({exc})") from None
+    sections = [truth.get(name, {}) for name in ("simulate", "physics")] \
+        if isinstance(truth, dict) else None
+    if sections is None or not all(isinstance(section, dict) for section in sections):
+        raise DrumrollError(f"{path}: not a truth file (a JSON object with 'simulate' and "
+                            "'physics' objects, as `drumroll simulate --truth` writes)")
     # The truth's values are under the quantities' own keys (drumroll.quantities), as the
     # posterior's are: what the simulation was given, and what its physics made of it.
-    given = {**truth.get("simulate", {}), **truth.get("physics", {})}
+    given = {**sections[0], **sections[1]}
     return {key: float(given[key]) for key in QUANTITIES
             if isinstance(given.get(key), int | float) and not isinstance(given[key], bool)}
 

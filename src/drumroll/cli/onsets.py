@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from drumroll import fileio
-from drumroll.cli.arguments import non_negative_int
+from drumroll.cli.arguments import non_negative_int, positive_float
+from drumroll.errors import DrumrollError
 from drumroll.onsets.table import COLUMNS
 
 
@@ -25,9 +27,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="PNG", help="also draw the waveform with the onsets")
     p.add_argument("--all-candidates", action="store_true",
                    help="list rejected candidates too, each with the reason")
-    p.add_argument("--highpass", type=float, default=None, metavar="HZ",
+    p.add_argument("--highpass", type=positive_float, default=None, metavar="HZ",
                    help="lowest frequency analysed (default 150 Hz)")
-    p.add_argument("--threshold", type=float, default=5.0, metavar="Z",
+    p.add_argument("--threshold", type=positive_float, default=5.0, metavar="Z",
                    help="significance for a candidate, in robust standard deviations "
                    "(default 5)")
     p.add_argument("--stream", type=non_negative_int, metavar="N",
@@ -43,9 +45,13 @@ def run(args: argparse.Namespace) -> int:
     from drumroll.onsets import detect  # the detector: imported only when needed
 
     # Refuse to clobber before doing the work, not after it.
-    for path in (args.output, args.labels, args.plot):
-        if path:
-            fileio.check_writable(path, overwrite=args.force)
+    outputs = [Path(p) for p in (args.output, args.labels, args.plot) if p]
+    for path in outputs:
+        fileio.check_writable(path, overwrite=args.force)
+    if len({p.resolve() for p in outputs}) < len(outputs):
+        raise DrumrollError("-o, --labels and --plot name the same file: give each its own")
+    if args.plot:
+        fileio.check_figure_suffix(args.plot)
     options = {} if args.highpass is None else {"highpass_hz": args.highpass}
     # The stream travels with the path, so that the figure reads the same stream.
     audio = args.audio if args.stream is None else AudioSource(args.audio, args.stream)

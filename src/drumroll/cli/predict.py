@@ -7,7 +7,7 @@ import json
 import warnings
 from typing import TYPE_CHECKING
 
-from drumroll.cli.arguments import positive_int
+from drumroll.cli.arguments import non_negative_int, positive_int
 from drumroll.errors import DrumrollWarning
 from drumroll.quantities import DERIVED
 from drumroll.reporting.numbers import format_value_error
@@ -30,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="number of flight times to print (default 5)")
     parser.add_argument("--draws", type=positive_int, default=20_000,
                         help="Monte Carlo draws (default 20000)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")
     parser.set_defaults(func=run)
 
 

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import soundfile as sf
 
+from drumroll.cli.arguments import non_negative_int
 from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.fileio import check_writable, write_text, write_with
 
@@ -46,7 +47,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="recording to write: .wav, .flac or .ogg")
     parser.add_argument("--truth", metavar="JSON",
                         help="truth file (default: AUDIO with the suffix .truth.json)")
-    parser.add_argument("--seed", type=int, default=None,
+    parser.add_argument("--seed", type=non_negative_int, default=None,
                         help="random seed (default: the config's simulate.seed, else 0)")
     parser.add_argument("--force", action="store_true", help="overwrite existing files")
     parser.set_defaults(func=run)

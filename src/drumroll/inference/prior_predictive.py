@@ -68,6 +68,11 @@ class Prediction:
         return out
 
 
+#: Most values (draws × (flights + 1)) in one array of a propagation: each array is then at
+#: most 400 MB, and a dozen of them fit in memory; beyond, the Monte Carlo error is long
+#: below anything a measured prior can mean.
+MAX_VALUES = 50_000_000
+
 def predictable_models(config: Config) -> tuple[str, ...]:
     """The models ``predict`` can propagate: those with a stick when the config gives one,
     the others (the power law) when the config gives a prior for each of their parameters."""
@@ -103,6 +108,11 @@ def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_
     """
     if n_draws < 2:
         raise DrumrollError("the number of draws must be at least 2")
+    if n_draws * (n_flights + 1) > MAX_VALUES:
+        raise DrumrollError(
+            f"{n_draws} draws of {n_flights} flights are {n_draws * (n_flights + 1):.2g} values "
+            f"per array, more than {MAX_VALUES:.0e} (a few GB of memory): ask for fewer draws "
+            "or flights (the sd's precision is 1/sqrt(2 × draws): 20,000 give 0.5 %)")
     rng = np.random.default_rng(seed)
     draws = {name: prior.sample(rng, n_draws) for name, prior in sorted(config.priors.items())}
     forward = forward_model(model)

@@ -81,8 +81,7 @@ def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise DrumrollError(f"{out_dir}: exists and is not a directory")
-    if not out_dir.parent.exists():
-        raise DrumrollError(f"{out_dir.parent}: no such directory")
+    fileio.check_folder_writable(out_dir if out_dir.is_dir() else out_dir.parent)
     if not overwrite and out_dir.is_dir():
         existing = [name for name in names if (out_dir / name).exists()]
         if existing:
