@@ -166,6 +166,16 @@ def test_onsets_options_are_checked_before_anything_is_written(tmp_path, capsys,
     assert not list(tmp_path.iterdir())  # nothing written
 
 
+def test_predict_draws_below_two_are_a_usage_error_as_its_help_says(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["predict", str(DATA / "table2_h80.toml"), "--draws", "1"])
+    assert exit_.value.code == 2
+    assert "argument --draws: must be at least 2, got 1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["predict", "--help"])
+    assert "at least 2" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("arguments", [["--draws", "1000000000"], ["-n", "1000000"]])
 def test_predict_refuses_what_would_not_fit_in_memory(tmp_path, capsys, arguments):
     # --draws 1e9 was killed for want of memory (exit 137); -n 1e6 a MemoryError.

@@ -21,6 +21,14 @@ def positive_int(text: str) -> int:
     return _whole_number(text, 1)
 
 
+def at_least(least: int):
+    """An ``argparse`` type: a whole number of at least ``least`` (a usage error otherwise)."""
+    def parse(text: str) -> int:
+        return _whole_number(text, least)
+
+    return parse
+
+
 def non_negative_int(text: str) -> int:
     """An ``argparse`` type: a whole number of at least 0 (a usage error otherwise)."""
     return _whole_number(text, 0)

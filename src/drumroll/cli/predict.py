@@ -7,7 +7,7 @@ import json
 import warnings
 from typing import TYPE_CHECKING
 
-from drumroll.cli.arguments import non_negative_int, positive_int
+from drumroll.cli.arguments import at_least, non_negative_int, positive_int
 from drumroll.errors import DrumrollWarning
 from drumroll.quantities import DERIVED
 from drumroll.reporting.numbers import format_value_error
@@ -28,8 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("-n", "--flights", type=positive_int, default=5, metavar="N",
                         help="number of flight times to print (default 5)")
-    parser.add_argument("--draws", type=positive_int, default=20_000,
-                        help="Monte Carlo draws (default 20000)")
+    parser.add_argument("--draws", type=at_least(2), default=20_000,
+                        help="Monte Carlo draws, at least 2 (default 20000)")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")
     parser.set_defaults(func=run)
 

@@ -151,17 +151,24 @@ def _numbered(path: Path, line_numbers: list[int], times: list[float], columns: 
                       columns.get("sigma_s", np.zeros(size)), bounce=bounce, roll=roll)
 
 
+#: Column separators of a CSV, as spreadsheets write it: the first in its header wins (a
+#: spreadsheet set to a language with decimal commas writes ";").
+CSV_SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab"}
+
+
 def _read_csv(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
-    header = [h.strip() for h in lines[0][1].split(",")]
+    separator = next((s for s in CSV_SEPARATORS if s in lines[0][1]), ",")
+    header = [h.strip() for h in lines[0][1].split(separator)]
     missing = [c for c in ("time_s",) if c not in header]
     if missing:
         raise DrumrollError(f"{path}: line {lines[0][0]}: header lacks column time_s")
     cols: dict[str, list[float]] = {c: [] for c in header}
     for n, ln in lines[1:]:
-        parts = ln.split(",")
+        parts = ln.split(separator)
         if len(parts) != len(header):
-            raise DrumrollError(f"{path}: line {n}: expected {len(header)} comma-separated "
-                                f"values, found {len(parts)}")
+            raise DrumrollError(f"{path}: line {n}: expected {len(header)} "
+                                f"{CSV_SEPARATORS[separator]}-separated values, found "
+                                f"{len(parts)}")
         for c, v in zip(header, parts, strict=True):
             cols[c].append(_whole(path, n, v, c) if c in NUMBER_COLUMNS
                            else _number(path, n, v, c))
@@ -206,7 +213,7 @@ def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
 
 #: The formats, in the order their first lines are tried (plain text last: it takes any).
 ONSET_FORMATS: dict[str, OnsetFormat] = {f.name: f for f in (
-    OnsetFormat("csv", "drumroll's onset CSV", (".csv",),
+    OnsetFormat("csv", "drumroll's onset CSV (comma-, semicolon- or tab-separated)", (".csv",),
                 lambda first: first.replace(" ", "").lower().startswith("time_s"),
                 _read_csv, OnsetTable.to_csv),
     OnsetFormat("labels", "Audacity label track", (".tsv", ".lab", ".labels"),

@@ -105,6 +105,24 @@ def test_old_csv_without_numbers_still_reads(tmp_path):
     np.testing.assert_array_equal(read_onsets(only_rolls).bounce, [0, 1, 0, 1, 2])
 
 
+@pytest.mark.parametrize("separator", [";", "\t"])
+def test_a_spreadsheets_csv_reads_whatever_its_separator(tmp_path, separator):
+    # A spreadsheet set to a language with decimal commas exports ';'-separated CSV; it was
+    # refused with "header lacks column time_s" although its header has it.
+    path = tmp_path / "sheet.csv"
+    path.write_text(separator.join(["time_s", "sigma_s", "bounce"]) + "\n"
+                    + "\n".join(separator.join(row) for row in
+                                (["0.5", "0.0001", "0"], ["0.7", "0.0002", "1"],
+                                 ["1.04", "0.0001", "3"])) + "\n")
+    table = read_onsets(path)
+    np.testing.assert_allclose(table.time_s, [0.5, 0.7, 1.04])
+    np.testing.assert_allclose(table.sigma_s, [1e-4, 2e-4, 1e-4])
+    np.testing.assert_array_equal(table.bounce, [0, 1, 3])
+    path.write_text("time_s;sigma_s\n0.5;0.0001;7\n")
+    with pytest.raises(DrumrollError, match="line 2: expected 2 semicolon-separated values"):
+        read_onsets(path)
+
+
 @pytest.mark.parametrize(("text", "where", "what"), [
     ("time_s,bounce\n0.1,0\n0.2,1.5\n", "line 3", "bounce '1.5' is not a whole number"),
     ("time_s,bounce\n0.1,0\n0.2,two\n", "line 3", "bounce 'two' is not a number"),
