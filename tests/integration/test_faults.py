@@ -182,3 +182,22 @@ def test_predict_refuses_what_would_not_fit_in_memory(tmp_path, capsys, argument
     assert main(["predict", str(DATA / "table2_h80.toml"), *arguments]) == 2
     err = capsys.readouterr().err
     assert "more than 5e+07" in err and len(err.strip().splitlines()) == 1
+
+
+def test_force_leaves_no_figure_of_the_run_it_replaces(tmp_path, capsys):
+    """The first run (a recording) draws onsets.png; the second, --force into the same folder
+    from an onset file, draws none: the folder holds only the second run's results."""
+    config = tmp_path / "ball.toml"
+    config.write_text(BALL_CONFIG)
+    out = tmp_path / "out"
+    onsets = tmp_path / "pingpong.csv"
+    assert main(["onsets", str(DATA / "pingpong.wav"), "-o", str(onsets)]) == 0
+    assert main(["estimate", str(DATA / "pingpong.wav"), "--prior", str(config), "-o",
+                 str(out), "-q"]) == 0
+    assert (out / "onsets.png").exists()
+    (out / "my notes.txt").write_text("mine")
+    assert main(["estimate", str(onsets), "--prior", str(config), "-o", str(out), "-q",
+                 "--force"]) == 0
+    assert not (out / "onsets.png").exists()
+    assert (out / "my notes.txt").read_text() == "mine"  # not ours: left alone
+    assert (out / "summary.json").exists() and (out / "residuals.png").exists()

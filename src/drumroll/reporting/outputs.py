@@ -143,6 +143,14 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
                 raise DrumrollError(f"{final}: appeared while we were working; not replaced")
             os.replace(path, final)
             written[keys.get(path.name, path.stem)] = final
+        if overwrite:
+            # The folder is this run's now: a figure of the run it replaces that this one
+            # does not draw (onsets.png of a recording, when these onsets came from a file;
+            # comparison.png of a run that compared models) would sit beside results it does
+            # not belong to. Only our own names are touched.
+            for name in set(output_files()) - {p.name for p in written.values()}:
+                with contextlib.suppress(FileNotFoundError):
+                    (out_dir / name).unlink()
         finished = True
         return written
     finally:
