@@ -152,7 +152,8 @@ def parse_runs(raw: Mapping[str, Any], path: Path) -> RunsFile:
     share = _parse_share(raw.get("share", []))
     title = string(raw["title"], "title") if "title" in raw else None
     common = {name: table(raw[name], name) for name in OVERRIDABLE if name in raw}
-    base_raw = _read_config(folder, raw["base"], "base") if "base" in raw else None
+    base_raw = (_read_config(folder, raw["base"], "base", complete=False) if "base" in raw
+                else None)
     entries = raw.get("run")
     if not isinstance(entries, list) or not entries:
         raise ConfigError("run: no runs (add [[run]] tables with a label and a source)")
@@ -199,21 +200,25 @@ def _parse_share(value: Any) -> tuple[str, ...]:
     return tuple(dict.fromkeys(out))
 
 
-def _read_config(folder: Path, value: Any, key: str) -> dict[str, Any]:
+def _read_config(folder: Path, value: Any, key: str, *, complete: bool = True
+                 ) -> dict[str, Any]:
     """The raw TOML of a config named at ``key`` (sections estimation never reads dropped).
 
-    The sections estimation never reads are dropped; the physics is validated here, the
-    estimation sections by :func:`validate_estimation`.
+    A ``complete`` config (a run's own) has its physics validated here, the estimation
+    sections by :func:`validate_estimation`. The base need not be complete: a prior every
+    run gives itself may be absent from it, so it is checked merged into each run (its
+    syntax, here).
     """
     name = string(value, key)
     path = (folder / name).resolve()
     raw = read_toml(path, "config file", prefix=f"{key}: ")
     for section in _IGNORED_SECTIONS:
         raw.pop(section, None)
-    try:
-        parse_config(raw)
-    except ConfigError as exc:
-        raise ConfigError(f"{key}: {path}: {exc}") from None
+    if complete:
+        try:
+            parse_config(raw)
+        except ConfigError as exc:
+            raise ConfigError(f"{key}: {path}: {exc}") from None
     return raw
 
 
@@ -291,7 +296,8 @@ def _parse_run(entry: Any, index: int, folder: Path, base_raw: dict[str, Any] | 
             if section in raw:
                 table(raw[section], section)
     except ConfigError as exc:
-        raise ConfigError(f"{where}: {exc}") from None
+        of = "" if "config" in entry else " (the base config with this run's overrides)"
+        raise ConfigError(f"{where}{of}: {exc}") from None
     return Run(label=label, source=source, raw=raw, config=config, group=group, roll=roll,
                stream=stream)
 

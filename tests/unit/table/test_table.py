@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ import pytest
 
 import drumroll.table.execute as execute
 from drumroll.cli.main import main
+from drumroll.errors import ConfigError
 from drumroll.inference.results import (
     FlightSeries,
     ModelSummary,
@@ -23,6 +25,7 @@ from drumroll.table import FORMATS, format_table, load_runs
 from drumroll.table.execute import Estimate, RunRow, TableResult, run_key
 from drumroll.table.formatting import format_for
 from drumroll.table.plot import plot_table
+from drumroll.table.runs import vary_value
 from paths import DATA
 
 BASE = """
@@ -95,7 +98,8 @@ def cli_error(folder: Path, text: str, capsys, *extra: str) -> str:
     (runs_text(RUN_H80, RUN_H80), "duplicate label 'h80'"),
     (runs_text(RUN_H80.replace("h80.txt", "missing.txt")), "missing.txt: no such file"),
     (runs_text(RUN_H80 + '[run.priors]\npivto_mm = 131\n'),
-     "run 'h80': priors.pivto_mm: unknown key (did you mean 'pivot_mm'?)"),
+     "run 'h80' (the base config with this run's overrides): priors.pivto_mm: unknown key "
+     "(did you mean 'pivot_mm'?)"),
     (runs_text(RUN_H80 + '[run.stick]\nlenght_mm = 350\n'), "did you mean 'length_mm'?"),
     (runs_text(RUN_H80 + 'colour = "red"\n'), "run 'h80': colour: unknown key"),
     (runs_text(RUN_H80, header='base = "base.toml"\nvary = "pivot"\n'),
@@ -152,6 +156,20 @@ def test_parsed_runs(folder):
     assert run_key(load_runs(folder / "runs.toml").runs[0]) == key
     (folder / "runs.toml").write_text(runs_text(RUN_H80 + "[run.sampler]\nseed = 3\n"))
     assert run_key(load_runs(folder / "runs.toml").runs[0]) != key
+
+
+def test_a_base_may_leave_out_what_every_run_gives(folder):
+    # "base: …: priors.pivot_mm: missing" refused this, although each run gives its own.
+    (folder / "base.toml").write_text(BASE.replace(
+        'pivot_mm = { dist = "normal", mu = 131, sigma = 2 }\n', ""))
+    own = '[run.priors]\npivot_mm = { dist = "normal", mu = 110, sigma = 2 }\n'
+    (folder / "runs.toml").write_text(runs_text(RUN_H80 + own, run_d131()))
+    runs = load_runs(folder / "runs.toml")
+    assert [vary_value(r, "pivot_mm") for r in runs.runs] == [(110.0, 2.0), (131.0, 2.0)]
+    (folder / "runs.toml").write_text(runs_text(RUN_H80, run_d131()))
+    with pytest.raises(ConfigError, match=re.escape(
+            "run 'h80' (the base config with this run's overrides): priors.pivot_mm: missing")):
+        load_runs(folder / "runs.toml")
 
 
 def fake_row(alpha: float, t_b: float, n: int = 10, notes: tuple[str, ...] = ()) -> RunRow:
