@@ -38,6 +38,9 @@ class AudioInfo:
         Whether the codec gives back exactly the samples it was given.
     decoder
         ``"soundfile"`` or ``"ffmpeg"``.
+    damage
+        What the reader found wrong with a file it still reads (a truncated file: its header
+        promises more audio than it holds), in words; None for a whole file.
     """
 
     path: Path
@@ -52,6 +55,7 @@ class AudioInfo:
     bit_rate: int | None = None
     lossless: bool = True
     decoder: str = "soundfile"
+    damage: str | None = None
 
     @property
     def duration_s(self) -> float:

@@ -18,6 +18,7 @@ recording costs no more memory than a short one. Problems a user can fix are rai
 from __future__ import annotations
 
 import os
+import re
 import threading
 import warnings
 from collections.abc import Iterator
@@ -173,7 +174,28 @@ def _soundfile_info(f: sf.SoundFile, path: Path) -> AudioInfo:
     return AudioInfo(path, int(f.samplerate), int(f.frames), int(f.channels), str(f.format),
                      subtype, container=str(f.format).lower(),
                      codec=_SF_LOSSY.get(subtype, subtype.lower()), stream=0,
-                     bit_rate=bit_rate, lossless=not lossy, decoder="soundfile")
+                     bit_rate=bit_rate, lossless=not lossy, decoder="soundfile",
+                     damage=_damage(f.extra_info))
+
+
+#: What libsndfile's log says of a file cut short: a chunk whose declared size the file does
+#: not hold (WAV, AIFF: ``data : 444868 (should be 222412)``), or an Ogg stream that stops
+#: without its end-of-stream page.
+_SHORT_CHUNK = re.compile(r"^\s*(data|SSND)\s*:\s*(\d+)\s*\(should be (\d+)\)", re.MULTILINE)
+_NO_OGG_END = "lacks an end-of-stream"
+
+
+def _damage(log: str) -> str | None:
+    """A truncation that libsndfile's log of the file reports, in words (None: whole)."""
+    short = _SHORT_CHUNK.search(log)
+    if short:
+        declared, held = int(short.group(2)), int(short.group(3))
+        return (f"the file is cut short: its header declares {declared} bytes of audio and "
+                f"it holds {held} ({held / declared:.0%}); what is there is analysed")
+    if _NO_OGG_END in log:
+        return ("the file is cut short: its last Ogg page lacks the end-of-stream mark; what "
+                "is there is analysed")
+    return None
 
 
 def _open(path: Path, stream: int) -> tuple[sf.SoundFile | RawReader, AudioInfo]:
@@ -223,6 +245,10 @@ def probe(path: str | os.PathLike[str], *, stream: int | None = None) -> AudioIn
     if info.sample_rate < MIN_SAMPLE_RATE:
         raise AudioError(f"{file}: sample rate {info.sample_rate} Hz is too low to time "
                          f"impacts (need at least {MIN_SAMPLE_RATE} Hz)")
+    if info.damage:
+        # stacklevel 1: one place, so that the probes of one file (detection, the figure)
+        # give one line
+        warnings.warn(f"{file}: {info.damage}", DrumrollWarning, stacklevel=1)
     return info
 
 
@@ -307,6 +333,13 @@ def iter_blocks(path: str | os.PathLike[str], block_frames: int = DEFAULT_BLOCK_
     if clipped:
         warnings.warn(f"{info.path}: clipped in {clipped} place(s); impact times are kept but "
                       "amplitudes near full scale are unreliable", DrumrollWarning, stacklevel=2)
+    if stop is None and info.damage is None and start + total < 0.99 * info.frames:
+        # The header promised more than the file holds (an MP3's Xing header of the whole
+        # file, cut short; libsndfile's log says nothing of it)
+        warnings.warn(f"{info.path}: the file is cut short: its header declares "
+                      f"{info.duration_s:.2f} s of audio and it holds "
+                      f"{(start + total) / info.sample_rate:.2f} s; what is there is analysed",
+                      DrumrollWarning, stacklevel=1)
 
 
 def _count_clip_runs(full: np.ndarray, run: int) -> tuple[int, int]:

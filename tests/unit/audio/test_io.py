@@ -107,3 +107,26 @@ def test_clipping_warns_and_carries_on(tmp_path):
         read_audio(path)
     assert any(issubclass(w.category, DrumrollWarning) and "clipped" in str(w.message)
                for w in caught)
+
+
+@pytest.mark.parametrize(("fmt", "subtype", "suffix"), [
+    ("WAV", "PCM_16", ".wav"), ("OGG", "VORBIS", ".ogg"), ("MP3", "MPEG_LAYER_III", ".mp3")])
+def test_a_file_cut_short_is_read_with_a_warning(tmp_path, fmt, subtype, suffix):
+    """A recording whose upload or copy stopped half-way: its header (WAV's data chunk, an
+    MP3's Xing frame count) or its last Ogg page says so, and what is there is analysed with
+    one warning (it was analysed without a word); the whole file gives none."""
+    rng = np.random.default_rng(0)
+    x = 0.1 * rng.standard_normal(44100 * 3)
+    whole = tmp_path / f"whole{suffix}"
+    sf.write(whole, x, 44100, format=fmt, subtype=subtype)
+    cut = tmp_path / f"cut{suffix}"
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DrumrollWarning)
+        read_audio(whole)
+    assert not [w for w in caught if "cut short" in str(w.message)]
+    with pytest.warns(DrumrollWarning, match="the file is cut short") as caught:
+        y, _ = read_audio(cut)
+    assert 0.3 * x.size < y.size < 0.7 * x.size
+    # one line (a warning repeated from one place is shown once)
+    assert len({str(w.message) for w in caught if "cut short" in str(w.message)}) == 1
