@@ -246,7 +246,10 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
             rows[i] = read_cached(folder / f"{key}.json")
     todo = [i for i, row in enumerate(rows) if row is None]
     for i in todo:  # every config fully valid before anything is sampled
-        validate_estimation(runs.runs[i])
+        try:
+            validate_estimation(runs.runs[i])
+        except DrumrollError as exc:  # named as the runs file's other errors are
+            raise type(exc)(f"{runs.path}: {exc}") from None
     if len(todo) < len(rows):
         say(f"{len(rows) - len(todo)} of {len(rows)} runs from the cache ({folder})")
 

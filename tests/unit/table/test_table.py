@@ -114,6 +114,8 @@ def cli_error(folder: Path, text: str, capsys, *extra: str) -> str:
      "priors.pivot_mm: the normal distribution needs 'sigma'"),
     ('base = "base.toml"\n', "run: no runs"),
     (runs_text(RUN_H80 + '[run.sampler]\nmax_step = 10\n'), "did you mean 'max_steps'?"),
+    (runs_text(RUN_H80 + '[run.sampler]\nwalkers = "many"\n'),
+     "runs.toml: run 'h80': sampler.walkers: expected a number, got a string ('many')"),
 ])
 def test_bad_runs_files_fail_before_sampling(folder, capsys, no_sampling, text, expected):
     err = cli_error(folder, text, capsys)
