@@ -6,6 +6,8 @@ import csv
 import io
 import json
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -114,13 +116,24 @@ def cli_error(folder: Path, text: str, capsys, *extra: str) -> str:
      "priors.pivot_mm: the normal distribution needs 'sigma'"),
     ('base = "base.toml"\n', "run: no runs"),
     (runs_text(RUN_H80 + '[run.sampler]\nmax_step = 10\n'), "did you mean 'max_steps'?"),
-    (runs_text(RUN_H80 + '[run.sampler]\nwalkers = "many"\n'),
-     "runs.toml: run 'h80': sampler.walkers: expected a number, got a string ('many')"),
 ])
 def test_bad_runs_files_fail_before_sampling(folder, capsys, no_sampling, text, expected):
     err = cli_error(folder, text, capsys)
     assert expected in err
     assert err.startswith("drumroll: error: ")
+
+
+def test_an_estimation_section_error_names_the_runs_file(folder):
+    # In a fresh process the [sampler] section is parsed only when the runs are about to be
+    # estimated; its error named the run but not the runs file.
+    (folder / "runs.toml").write_text(
+        runs_text(RUN_H80, header='base = "base.toml"\n[sampler]\nwalkers = "many"\n'))
+    proc = subprocess.run([sys.executable, "-m", "drumroll", "table", "runs.toml", "-q",
+                           "--no-cache"], cwd=folder, capture_output=True, text=True,
+                          check=False)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("drumroll: error: runs.toml: run 'h80'")
+    assert "sampler.walkers: expected a number, got a string ('many')" in proc.stderr
 
 
 def test_outputs_checked_before_sampling(folder, capsys, no_sampling):
