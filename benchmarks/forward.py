@@ -4,8 +4,8 @@ Run ``python benchmarks/forward.py``. One "sequence" is a drop's fall plus 40 fl
 closed form is timed vectorised over 64 parameter sets (one ``bounce_sequence`` call, so the
 geometry and validity checks are included), best of several ``timeit`` repeats. The ODE
 reference integrates θ̈ = γ cos θ with ``solve_ivp`` (DOP853, rtol 1e-12) and terminal events,
-as ``tests/unit/physics/test_pendulum.py`` does: the fall to θ = θ_C, then each flight from θ_C at the
-exact launch speed, up to its turning point and down to θ_C (two calls, so that the contact
+as ``tests/unit/physics/test_pendulum.py`` does: the fall to θ = θ_C, then each flight from θ_C
+at the exact launch speed, up to its turning point and down to θ_C (two calls, so that the contact
 event cannot fire at the start). A cheaper ODE baseline (the climb only, doubled) is timed too.
 The ODE is timed on a subset of the 64 sets and scaled, as the output says. Both results are
 compared, so the speed-up is for the same answer.
