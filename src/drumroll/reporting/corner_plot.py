@@ -113,6 +113,10 @@ def draw_corner(idata, truths: dict[str, float] | None = None):
         use_math_text=True,
     )
     axes = np.asarray(fig.axes).reshape(k, k)
+    for ax in axes[np.triu_indices(k, 1)]:
+        # corner leaves the upper triangle empty (no frame, no ticks) but drawn: hidden, the
+        # PNG is identical pixel for pixel and saving skips 28 of 64 axes (~50 ms).
+        ax.set_visible(False)
     for i, name in enumerate(names):
         title = quantile_title(name, samples[:, i])
         if i in off_scale:
