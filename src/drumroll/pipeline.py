@@ -398,6 +398,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         diagnostics,
         flight_series,
         observed_flights,
+        onset_residuals,
         parameter_summary,
     )
 
@@ -434,9 +435,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         stats = parameters if model == config.model else parameter_summary(fit.idata,
                                                                             settings.hdi_prob)
         fit.stats = stats
-        models_summary[model] = ModelSummary(parameters=stats,
-                                             flights=flight_series(fit.idata, settings.hdi_prob),
-                                             adequacy=adequacies[model])
+        models_summary[model] = ModelSummary(
+            parameters=stats, flights=flight_series(fit.idata, settings.hdi_prob),
+            residuals=onset_residuals(fit.idata, settings.hdi_prob), adequacy=adequacies[model])
         for name, values in fit.idata.posterior.data_vars.items():
             # For the readers of posterior.nc, whose draws are thinned below.
             values.attrs.update({key: getattr(stats[name], key) for key in (

@@ -258,8 +258,7 @@ def test_summary_report_and_posterior_name_the_missing_bounce(fits):
 
 
 def test_figures_leave_out_the_flights_next_to_a_gap(fits):
-    from drumroll.inference.summary import observed_flights
-    from drumroll.reporting.residuals import onset_residuals
+    from drumroll.inference.summary import observed_flights, onset_residuals
 
     idata = load_posteriors(fits["out"] / "posterior.nc")["powerlaw"]
     observed = observed_flights(idata)
@@ -272,10 +271,12 @@ def test_figures_leave_out_the_flights_next_to_a_gap(fits):
     others = np.setdiff1d(np.arange(N_ONSETS - 1), missing)
     np.testing.assert_allclose(flights[others], np.diff(times)[others], atol=2e-8)  # CSV digits
     r = onset_residuals(idata)
-    np.testing.assert_array_equal(r["bounce"], idata.observed_data["onset"].values)
-    assert np.all(r["model_lo"] < r["model_hi"])
+    np.testing.assert_array_equal(r.bounce, idata.observed_data["onset"].values)
+    low, high = np.array(r.low), np.array(r.high)
+    model_low, model_high = np.array(r.model_low), np.array(r.model_high)
+    assert np.all(model_low < model_high)
     # the noise-free model at each onset's own bounce lies inside the predictive band
-    assert np.all(r["pp_lo"] < r["model_lo"]) and np.all(r["model_hi"] < r["pp_hi"])
+    assert np.all(low < model_low) and np.all(model_high < high)
 
 
 def test_a_roll_numbered_from_a_later_bounce_is_counted_from_its_first(tmp_path):

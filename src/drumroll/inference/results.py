@@ -192,6 +192,24 @@ class ObservedFlights(Record):
 
 
 @dataclass(frozen=True)
+class OnsetResiduals(Record):
+    """One model's onset residuals (s), each relative to the posterior median replicated
+    onset: the observed onsets' (``residual``), the central band (probability ``prob``) of
+    replicated onsets, noise included (``low``, ``high``), and of the noise-free model
+    (``model_low``, ``model_high``; empty when not known); with each onset's bounce number
+    and the extractor's sigma."""
+
+    bounce: tuple[int, ...] = ()
+    residual: tuple[float, ...] = ()
+    sigma: tuple[float, ...] = ()
+    low: tuple[float, ...] = ()
+    high: tuple[float, ...] = ()
+    model_low: tuple[float, ...] = ()
+    model_high: tuple[float, ...] = ()
+    prob: float = 0.9
+
+
+@dataclass(frozen=True)
 class AdequacyCheck(Record):
     """One posterior predictive check of the residuals (:mod:`drumroll.inference.adequacy`):
     the statistic's posterior mean for the observed onsets and for replicated ones, and the
@@ -240,15 +258,16 @@ def _p(value: float) -> str:
 
 @dataclass(frozen=True)
 class ModelSummary(Record):
-    """One fitted model: its posterior summaries by quantity key, its flights, and whether it
-    describes the onsets (:class:`Adequacy`)."""
+    """One fitted model: its posterior summaries by quantity key, its flights, its onset
+    residuals, and whether it describes the onsets (:class:`Adequacy`)."""
 
     nested: ClassVar[dict[str, tuple[type[Record], str]]] = {
         "parameters": (ParameterSummary, "dict"), "flights": (FlightSeries, "one"),
-        "adequacy": (Adequacy, "one")}
+        "residuals": (OnsetResiduals, "one"), "adequacy": (Adequacy, "one")}
 
     parameters: dict[str, ParameterSummary] = field(default_factory=dict)
     flights: FlightSeries = field(default_factory=FlightSeries)
+    residuals: OnsetResiduals = field(default_factory=OnsetResiduals)
     adequacy: Adequacy | None = None
 
 

@@ -7,6 +7,7 @@ from typing import Any
 
 import arviz as az
 import numpy as np
+from numpy.typing import NDArray
 
 from drumroll.inference.comparison import LooResult
 from drumroll.inference.convergence import diagnose
@@ -15,6 +16,7 @@ from drumroll.inference.results import (
     Diagnostics,
     FlightSeries,
     ObservedFlights,
+    OnsetResiduals,
     ParameterSummary,
     json_number,
 )
@@ -130,6 +132,29 @@ def flight_series(idata: az.InferenceData, prob: float = 0.9) -> FlightSeries:
     low, median, high = central_band(draws.reshape(-1, draws.shape[-1]), prob)
     return FlightSeries(median=tuple(map(float, median)), low=tuple(map(float, low)),
                         high=tuple(map(float, high)), prob=prob)
+
+
+def onset_residuals(idata: az.InferenceData, prob: float = 0.9) -> OnsetResiduals:
+    """A model's onset residuals and bands (see
+    :class:`~drumroll.inference.results.OnsetResiduals`): the posterior predictive check of
+    ``residuals.png``."""
+    times, sigmas = observed_onsets(idata)
+    predictive = idata.posterior_predictive
+    replicated = np.asarray(predictive["onset_time"].values, float)
+    low, median, high = central_band(replicated.reshape(-1, replicated.shape[-1]), prob)
+    model_low = model_high = ()
+    if "onset_time_model" in predictive:
+        model = np.asarray(predictive["onset_time_model"].values, float)
+        m_low, _, m_high = central_band(model.reshape(-1, model.shape[-1]), prob)
+        model_low, model_high = _floats(m_low - median), _floats(m_high - median)
+    return OnsetResiduals(
+        bounce=tuple(int(k) for k in observed_bounces(idata)),
+        residual=_floats(times - median), sigma=_floats(sigmas), low=_floats(low - median),
+        high=_floats(high - median), model_low=model_low, model_high=model_high, prob=prob)
+
+
+def _floats(values: NDArray) -> tuple[float, ...]:
+    return tuple(float(v) for v in values)
 
 
 def observed_flights(idata: az.InferenceData) -> ObservedFlights:

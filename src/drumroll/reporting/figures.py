@@ -89,9 +89,7 @@ def _bounce_series(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
 
 
 def _residuals(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
-    adequacy = {m: s.adequacy for m, s in inputs.summary.models.items()}
-    return plot_residuals(inputs.idatas, path, inputs.main, adequacy=adequacy,
-                          overwrite=overwrite)
+    return plot_residuals(inputs.summary, path, overwrite=overwrite)
 
 
 def _comparison(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:

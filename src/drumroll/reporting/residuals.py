@@ -6,7 +6,8 @@ median, and a darker band for the model's own (noise-free) uncertainty. A model 
 describes the bounces leaves residuals scattered evenly inside the band; a model that
 does not leaves a structured pattern (a wave, a trend; a lag-1 correlation near 1) and needs
 a large jitter to cover it: then the model, not the microphone, is the limit. Each title quotes
-the model's adequacy check (:mod:`drumroll.inference.adequacy`) as the summary gives it. The panels
+the model's adequacy check (:mod:`drumroll.inference.adequacy`). The figure draws the
+summary's residuals and bands (:func:`drumroll.inference.summary.onset_residuals`). The panels
 share the time axis; each has its own (symmetric) residual scale, quoted in its title as the
 rms residual and the fitted jitter, so that the scatter of a good fit is not squashed flat.
 The x axis is the bounce number k, so a missing bounce shows as a gap between the points.
@@ -19,12 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from drumroll.inference.inference_data import observed_bounces, observed_onsets
-from drumroll.inference.results import Adequacy
+from drumroll.inference.results import Summary
 from drumroll.reporting.plot_style import (
     BAND,
     DATA_COLOR,
-    flat_draws,
     model_color,
     model_name,
     new_figure,
@@ -32,31 +31,6 @@ from drumroll.reporting.plot_style import (
     save_figure,
     style,
 )
-from drumroll.stats import central_band
-
-
-def onset_residuals(idata) -> dict[str, np.ndarray]:
-    """Residuals and bands of one model, in seconds, relative to the median prediction.
-
-    Returns
-    -------
-    dict
-        ``time`` (observed onsets), ``bounce`` (their bounce numbers), ``residual``
-        (observed − median replicated onset),
-        ``sigma`` (extractor sigmas), ``pp_lo``/``pp_hi`` (90 % posterior predictive band),
-        and, when the noise-free prediction can be built, ``model_lo``/``model_hi``.
-    """
-    times, sigmas = observed_onsets(idata)
-    replicated = flat_draws(idata, "posterior_predictive", "onset_time")
-    lo, mid, hi = central_band(replicated)
-    bounces = observed_bounces(idata)
-    out = {"time": times, "bounce": bounces, "residual": times - mid, "sigma": sigmas,
-           "pp_lo": lo - mid, "pp_hi": hi - mid}
-    if "onset_time_model" in idata.posterior_predictive:
-        model = flat_draws(idata, "posterior_predictive", "onset_time_model")
-        m_lo, _, m_hi = central_band(model)
-        out["model_lo"], out["model_hi"] = m_lo - mid, m_hi - mid
-    return out
 
 
 def _every_bounce(bounces: np.ndarray):
@@ -72,30 +46,30 @@ def _every_bounce(bounces: np.ndarray):
     return k, at
 
 
-def draw_residuals(idatas: dict, main_model: str | None = None,
-                   adequacy: dict[str, Adequacy | None] | None = None):
-    """Build the residual figure (a :class:`matplotlib.figure.Figure`), one panel per model,
-    each titled with its adequacy check when ``adequacy`` gives it (the residuals' lag-1
-    correlation against the model's own noise, and the p-value)."""
+def draw_residuals(summary: Summary):
+    """Build the residual figure (a :class:`matplotlib.figure.Figure`), one panel per model
+    of ``summary``, each from the model's residuals and bands and titled with its adequacy
+    check (the residuals' lag-1 correlation against the model's own noise, the p-value)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     from matplotlib.ticker import MaxNLocator
 
-    models = ordered_models(idatas, main_model)
+    models = ordered_models(summary.models, summary.model)
     fig = new_figure((8.2, 0.7 + 2.1 * len(models)), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(models), 1, sharex=True, squeeze=False)[:, 0])
     for i, (ax, model) in enumerate(zip(axes, models, strict=True)):
-        idata = idatas[model]
-        r = onset_residuals(idata)
+        fitted = summary.models[model]
+        r = {name: np.asarray(getattr(fitted.residuals, name), float) for name in (
+            "residual", "sigma", "low", "high", "model_low", "model_high")}
+        t = np.asarray(fitted.residuals.bounce, int)
         color = model_color(model, i)
-        t = r["bounce"]
         ms = 1e3
         # Bands and the connecting line break where a bounce is missing (NaN there).
         k, at = _every_bounce(t)
-        ax.fill_between(k, at(r["pp_lo"]) * ms, at(r["pp_hi"]) * ms, color=color, alpha=0.2,
+        ax.fill_between(k, at(r["low"]) * ms, at(r["high"]) * ms, color=color, alpha=0.2,
                         lw=0, zorder=1)
-        if "model_lo" in r:
-            ax.fill_between(k, at(r["model_lo"]) * ms, at(r["model_hi"]) * ms, color=color,
+        if r["model_low"].size:
+            ax.fill_between(k, at(r["model_low"]) * ms, at(r["model_high"]) * ms, color=color,
                             alpha=0.45, lw=0, zorder=2)
         ax.axhline(0.0, color="0.35", lw=0.8, zorder=3)
         ax.plot(k, at(r["residual"]) * ms, color="0.45", lw=0.7, zorder=4)
@@ -104,11 +78,12 @@ def draw_residuals(idatas: dict, main_model: str | None = None,
                     mfc="white", mew=1.1, elinewidth=1.0, capsize=0, zorder=5)
         rms = float(np.sqrt(np.mean(r["residual"] ** 2)))
         text = f"rms residual {rms * ms:.2g} ms"
-        if "jitter_ms" in idata.posterior:
-            text += f", jitter σ = {float(np.median(idata.posterior['jitter_ms'])):.2g} ms"
-        outside = int(np.sum((r["residual"] < r["pp_lo"]) | (r["residual"] > r["pp_hi"])))
+        jitter = fitted.parameters.get("jitter_ms")
+        if jitter is not None and jitter.median is not None:
+            text += f", jitter σ = {jitter.median:.2g} ms"
+        outside = int(np.sum((r["residual"] < r["low"]) | (r["residual"] > r["high"])))
         text += f", {outside}/{t.size} outside the band"
-        checked = (adequacy or {}).get(model)
+        checked = fitted.adequacy
         lag = checked.checks.get("lag1_autocorrelation") if checked is not None else None
         if lag is not None and lag.observed is not None and lag.p_value is not None:
             text += (f"\nresiduals' lag-1 correlation {lag.observed:.2f} (the noise's "
@@ -116,7 +91,7 @@ def draw_residuals(idatas: dict, main_model: str | None = None,
                      f"p {'< 0.001' if lag.p_value < 0.001 else f'= {lag.p_value:.3f}'})"
                      + ("" if checked.adequate is not False else ": the model misses a pattern"))
         top = 1.08 * ms * float(np.nanmax(np.abs(np.concatenate(
-            (r["residual"] + r["sigma"], r["residual"] - r["sigma"], r["pp_lo"], r["pp_hi"])))))
+            (r["residual"] + r["sigma"], r["residual"] - r["sigma"], r["low"], r["high"])))))
         if top > 0:
             ax.set_ylim(-top, top)
         ax.set_title(f"{model_name(model)}", loc="left", color=color, fontweight="bold")
@@ -130,7 +105,7 @@ def draw_residuals(idatas: dict, main_model: str | None = None,
                       mew=1.1, label="detected onsets")]
     handles.append(Patch(facecolor="0.5", alpha=0.25, lw=0,
                          label=f"{BAND:.0%} posterior predictive (model + jitter)"))
-    if any("model_lo" in onset_residuals(idatas[m]) for m in models[:1]):
+    if summary.models[models[0]].residuals.model_low:
         handles.append(Patch(facecolor="0.5", alpha=0.55, lw=0,
                              label=f"{BAND:.0%} model only (noise-free)"))
     fig.legend(handles=handles, loc="outside upper center", ncols=len(handles),
@@ -138,10 +113,9 @@ def draw_residuals(idatas: dict, main_model: str | None = None,
     return fig
 
 
-def plot_residuals(idatas: dict, path: str | os.PathLike[str], main_model: str | None = None,
-                   *, adequacy: dict[str, Adequacy | None] | None = None,
+def plot_residuals(summary: Summary, path: str | os.PathLike[str], *,
                    overwrite: bool = False) -> Path:
     """Write ``residuals.png`` (see :func:`draw_residuals`) to ``path`` atomically."""
     with style():
-        fig = draw_residuals(idatas, main_model, adequacy)
+        fig = draw_residuals(summary)
     return save_figure(fig, path, overwrite=overwrite)

@@ -17,14 +17,19 @@ import numpy as np
 import pytest
 
 from drumroll.errors import DrumrollError
+from drumroll.inference.adequacy import adequacy
 from drumroll.inference.comparison import compare_models
 from drumroll.inference.results import ComparisonRow, Diagnostics, ModelSummary, Summary
-from drumroll.inference.summary import flight_series, observed_flights, parameter_summary
+from drumroll.inference.summary import (
+    flight_series,
+    observed_flights,
+    onset_residuals,
+    parameter_summary,
+)
 from drumroll.reporting import plot_style
 from drumroll.reporting.comparison_plot import plot_comparison
 from drumroll.reporting.corner_plot import corner_parameters, draw_corner, quantile_title
 from drumroll.reporting.figures import FIGURES, FigureInputs, figure_files, write_figures
-from drumroll.reporting.residuals import onset_residuals
 from drumroll.reporting.trace_plot import plot_trace
 
 matplotlib.use("Agg")
@@ -117,7 +122,8 @@ def summarise(idatas: dict[str, az.InferenceData], main: str) -> Summary:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rows, preferred, verdict, loos = compare_models(idatas, main)
-    models = {m: ModelSummary(parameters=parameter_summary(d), flights=flight_series(d))
+    models = {m: ModelSummary(parameters=parameter_summary(d), flights=flight_series(d),
+                              residuals=onset_residuals(d), adequacy=adequacy(d))
               for m, d in idatas.items()}
     return Summary(model=main, n_onsets=N_ONSETS, parameters=models[main].parameters,
                    models=models, observed_flights=observed_flights(idatas[main]),
@@ -227,9 +233,12 @@ def test_residuals_are_relative_to_the_median_prediction(idatas, observed):
     r = onset_residuals(idatas["pendulum"])
     replicated = idatas["pendulum"].posterior_predictive["onset_time"].values.reshape(
         -1, N_ONSETS)
-    np.testing.assert_allclose(r["residual"], observed[0] - np.median(replicated, axis=0))
-    assert np.all(r["pp_lo"] < 0) and np.all(r["pp_hi"] > 0)
-    assert np.all(r["model_hi"] - r["model_lo"] < r["pp_hi"] - r["pp_lo"])
+    np.testing.assert_allclose(r.residual, observed[0] - np.median(replicated, axis=0))
+    low, high = np.array(r.low), np.array(r.high)
+    assert np.all(low < 0) and np.all(high > 0)
+    np.testing.assert_allclose(low + np.median(replicated, axis=0),
+                               np.quantile(replicated, 0.05, axis=0))
+    assert np.all(np.array(r.model_high) - np.array(r.model_low) < high - low)
 
 
 def test_sampled_parameters_skip_derived_and_fixed(idatas):
