@@ -97,7 +97,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     """
     _one_blas_thread()
     parser = make_parser()
-    parser.add_argument("--debug", action="store_true",
+    parser.add_argument(DEBUG_OPTION, action="store_true",
                         help="show the traceback of an internal error (anywhere on the line)")
     arguments = list(sys.argv[1:] if argv is None else argv)
     debug = DEBUG_OPTION in arguments  # understood after a subcommand too
