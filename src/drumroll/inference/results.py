@@ -241,17 +241,18 @@ class Adequacy(Record):
         lag = self.checks.get("lag1_autocorrelation")
         if lag is not None and lag.p_value is not None and lag.p_value < self.level:
             shown.append(f"neighbouring residuals correlate at {lag.observed:.2f} where the "
-                         f"model's own noise gives {lag.replicated:.2f} ({_p(lag.p_value)})")
+                         f"model's own noise gives {lag.replicated:.2f} "
+                         f"({p_value_text(lag.p_value)})")
         runs = self.checks.get("sign_runs")
         if runs is not None and runs.p_value is not None and runs.p_value < self.level:
             shown.append(f"they change sign in {runs.observed:.0f} runs where the model's "
-                         f"noise gives {runs.replicated:.0f} ({_p(runs.p_value)})")
+                         f"noise gives {runs.replicated:.0f} ({p_value_text(runs.p_value)})")
         return (f"{model} does not describe these onsets: {'; '.join(shown)}. Its error bars "
                 "describe the model, not the bouncer (a restitution that changes with speed "
                 "or from bounce to bounce, or a mis-numbered bounce, leaves this pattern)")
 
 
-def _p(value: float) -> str:
+def p_value_text(value: float) -> str:
     """A p-value in words: ``p = 0.004``, or ``p < 0.001``."""
     return "p < 0.001" if value < 0.001 else f"p = {value:.3f}"
 

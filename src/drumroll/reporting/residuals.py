@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drumroll.inference.results import Summary
+from drumroll.inference.results import Summary, p_value_text
 from drumroll.reporting.plot_style import (
     BAND,
     DATA_COLOR,
@@ -87,8 +87,7 @@ def draw_residuals(summary: Summary):
         lag = checked.checks.get("lag1_autocorrelation") if checked is not None else None
         if lag is not None and lag.observed is not None and lag.p_value is not None:
             text += (f"\nresiduals' lag-1 correlation {lag.observed:.2f} (the noise's "
-                     f"{lag.replicated:.2f}, "
-                     f"p {'< 0.001' if lag.p_value < 0.001 else f'= {lag.p_value:.3f}'})"
+                     f"{lag.replicated:.2f}, {p_value_text(lag.p_value)})"
                      + ("" if checked.adequate is not False else ": the model misses a pattern"))
         top = 1.08 * ms * float(np.nanmax(np.abs(np.concatenate(
             (r["residual"] + r["sigma"], r["residual"] - r["sigma"], r["low"], r["high"])))))
