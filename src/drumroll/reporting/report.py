@@ -21,7 +21,13 @@ from pathlib import Path
 from typing import Any
 
 from drumroll import fileio
-from drumroll.inference.results import Diagnostics, Onset, ParameterSummary, Summary
+from drumroll.inference.results import (
+    Diagnostics,
+    Onset,
+    ParameterSummary,
+    Summary,
+    p_value_text,
+)
 from drumroll.onsets.table import single_flights
 from drumroll.physics.models import MODELS
 from drumroll.quantities import DERIVED, QUANTITIES, report_order
@@ -194,7 +200,8 @@ def adequacy_section(summary: Summary) -> list[str]:
                 cells += ["—", "—"]
                 continue
             cells += [f"{check.observed:.{digits}f} ({check.replicated:.{digits}f})",
-                      "—" if check.p_value is None else f"{check.p_value:.3f}"]
+                      "—" if check.p_value is None
+                      else p_value_text(check.p_value).removeprefix("p ").removeprefix("= ")]
         cells.append("yes" if adequacy.adequate else "**no**")
         lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
     lines += ["", "Posterior predictive checks: each statistic of the standardised residuals "
