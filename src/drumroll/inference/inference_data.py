@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from drumroll._version import __version__
 from drumroll.inference.loo import conditional_pointwise
-from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.posterior import LogPosterior, scatter_pointwise_and_noise
 from drumroll.inference.sampling import Chain
 from drumroll.quantities import BY_NAME, DERIVED
 
@@ -75,14 +75,18 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
     variables, impacts, t0 = parameter_draws(log_posterior, samples, rng)
     flat_samples = _flat(samples)
     values = log_posterior.space.values(flat_samples)
-    if log_posterior.noise == "gaussian":  # T0 marginalised: conditional terms (see .loo)
+    scale = np.sqrt(np.asarray(values["jitter"])[:, None] ** 2 + data.sigmas**2)
+    if log_posterior.scatters:  # correlated onsets: conditional terms and noise from Σ
+        pointwise, noise = scatter_pointwise_and_noise(log_posterior, flat_samples,
+                                                       _flat(impacts), rng)
+    elif log_posterior.noise == "gaussian":  # T0 marginalised: conditional terms (see .loo)
         pointwise = conditional_pointwise(data, _flat(impacts),
                                           np.broadcast_to(values["jitter"], t0.size))
+        noise = scale * rng.standard_normal(scale.shape)
     else:
         pointwise = log_posterior.pointwise(flat_samples, _flat(t0[..., None])[:, 0])
+        noise = scale * rng.standard_normal(scale.shape)  # replaced below; keeps the stream
     pointwise = pointwise.reshape((*samples.shape[:2], -1))
-    scale = np.sqrt(np.asarray(values["jitter"])[:, None] ** 2 + data.sigmas**2)
-    noise = scale * rng.standard_normal(scale.shape)
     if log_posterior.noise == "student-t":
         nu = np.broadcast_to(np.asarray(values["nu"], float), scale.shape[:1])[:, None]
         noise = scale * rng.standard_t(nu, size=scale.shape)

@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from drumroll.config import Config
 from drumroll.distributions import Distribution, Fixed, Uniform
+from drumroll.errors import ConfigError
 from drumroll.inference.likelihood import (
     T0_WINDOW_S,
     OnsetData,
@@ -19,7 +20,13 @@ from drumroll.inference.likelihood import (
     student_t,
     student_t_one,
 )
-from drumroll.inference.space import ParameterSpace
+from drumroll.inference.scatter import (
+    onset_covariance,
+    scatter_conditional_pointwise,
+    scatter_marginal,
+    scatter_noise,
+)
+from drumroll.inference.space import SCATTER, ParameterSpace
 
 NOISE_MODELS = ("gaussian", "student-t")
 #: Impact times τ_0 … τ_K after the first (every bounce up to the last observed one,
@@ -52,8 +59,18 @@ class LogPosterior:
     @classmethod
     def build(cls, config: Config, model: str, data: OnsetData, noise: str = "gaussian",
               nu: Distribution | None = None) -> LogPosterior:
-        """The posterior of ``model``; Student-t noise adds ``t0`` and ``nu`` (default ν = 4)."""
+        """The posterior of ``model``; Student-t noise adds ``t0`` and ``nu`` (default ν = 4).
+
+        Raises
+        ------
+        ConfigError
+            A restitution scatter with Student-t noise (the scatter is marginalised as a
+            Gaussian: :mod:`~drumroll.inference.scatter`).
+        """
         extra: dict[str, Distribution] = {}
+        if noise != "gaussian" and _scatters(config.priors.get(SCATTER)):
+            raise ConfigError("priors.restitution_scatter: a scattering restitution needs "
+                              'Gaussian onset noise ([likelihood] noise = "gaussian")')
         if noise == "student-t":
             first = float(data.times[0])
             extra = {"t0": Uniform(low=first - 0.5 * T0_WINDOW_S, high=first + 0.5 * T0_WINDOW_S),
@@ -66,6 +83,37 @@ class LogPosterior:
         names = self.space.names
         object.__setattr__(self, "_jitter_column",
                            names.index("jitter") if "jitter" in names else None)
+        object.__setattr__(self, "_scatter", _scatters(self.space.priors.get(SCATTER)))
+
+    @property
+    def scatters(self) -> bool:
+        """Whether the restitution scatters from bounce to bounce (a dense onset covariance:
+        :mod:`~drumroll.inference.scatter`)."""
+        return self._scatter
+
+    def onset_covariance(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """Impact times τ_0 … τ_K, the onsets' covariance Σ and validity per row of ``x``
+        under a scattering restitution, shapes ``(batch, K + 1)``, ``(batch, n, n)``,
+        ``(batch,)``."""
+        x = np.atleast_2d(np.asarray(x, float))
+        impacts, slopes, valid = self.space.impacts_and_slopes(x, self.data.n_flights)
+        rows = x.shape[0]
+        with np.errstate(all="ignore"):
+            covariance = onset_covariance(
+                self.data, slopes, np.broadcast_to(self.space.value(x, "jitter"), rows),
+                np.broadcast_to(self.space.value(x, SCATTER), rows))
+        return impacts, covariance, valid
+
+    def _scatter_marginal(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """:func:`~drumroll.inference.scatter.scatter_marginal` of the valid rows of ``x``
+        (log-likelihood −inf and T0 NaN elsewhere)."""
+        impacts, covariance, valid = self.onset_covariance(x)
+        out = np.full((3, x.shape[0]), np.nan)
+        out[0] = -np.inf
+        if valid.any():
+            with np.errstate(all="ignore"):
+                out[:, valid] = scatter_marginal(self.data, impacts[valid], covariance[valid])
+        return out[0], out[1], out[2]
 
     def log_likelihood(self, x: NDArray, impacts: Impacts | None = None) -> NDArray:
         """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise); −inf where
@@ -78,6 +126,8 @@ class LogPosterior:
         saves running the forward model again.
         """
         x = np.atleast_2d(np.asarray(x, float))
+        if self._scatter:  # the slopes are needed too, so given impacts do not suffice
+            return self._scatter_marginal(x)[0]
         impacts, valid = impacts or self.space.impacts(x, self.data.n_flights)
         with np.errstate(all="ignore"):
             if self.noise == "gaussian":
@@ -94,6 +144,8 @@ class LogPosterior:
     def log_likelihood_one(self, x: NDArray, impacts: NDArray | None = None) -> float:
         """The log-likelihood of one point ``(ndim,)`` as a float: nested sampling's path.
         ``impacts`` (from :meth:`ParameterSpace.impacts_one`) saves recomputing them."""
+        if self._scatter:
+            return float(self._scatter_marginal(np.asarray(x, float)[None, :])[0][0])
         if impacts is None:
             impacts = self.space.impacts_one(x, self.data.n_flights)
         if impacts is None:
@@ -119,6 +171,9 @@ class LogPosterior:
         reference the lean path is tested against."""
         v = self.space.values(x)
         impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
+        if self._scatter:
+            _, covariance, _ = self.onset_covariance(x)
+            return scatter_marginal(self.data, impacts, covariance)[0]
         if self.noise == "gaussian":
             return gaussian_marginal(self.data, impacts, v["jitter"])[0]
         return student_t(self.data, impacts, v["jitter"], v["t0"], v["nu"])
@@ -155,6 +210,9 @@ class LogPosterior:
         v = self.space.values(x)
         if self.noise != "gaussian":
             return v["t0"]
+        if self._scatter:
+            _, mean, sd = self._scatter_marginal(np.atleast_2d(x))
+            return mean + sd * rng.standard_normal(mean.shape)
         impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
         _, mean, sd = gaussian_marginal(self.data, impacts, v["jitter"])
         return mean + sd * rng.standard_normal(mean.shape)
@@ -165,3 +223,28 @@ class LogPosterior:
         impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
         return pointwise_log_likelihood(self.data, impacts, v["jitter"], t0, self.noise,
                                         v.get("nu"))
+
+
+def _scatters(prior: Distribution | None) -> bool:
+    """Whether a ``restitution_scatter`` prior makes the restitution scatter (given, and not
+    fixed at 0)."""
+    return prior is not None and not (isinstance(prior, Fixed) and prior.value == 0.0)
+
+
+def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts: NDArray,
+                                rng: np.random.Generator, chunk: int = 512
+                                ) -> tuple[NDArray, NDArray]:
+    """LOO's conditional terms log p(t_i | t_{−i}, θ) and one draw of the onsets' noise per
+    row, under a scattering restitution (Σ per row, built in chunks so that thousands of draws
+    of a long roll never hold all their n × n matrices at once).
+
+    ``impacts`` are the rows' τ_0 … τ_K (from the full forward model)."""
+    pointwise = np.empty((x.shape[0], log_posterior.data.n_onsets))
+    noise = np.empty_like(pointwise)
+    for start in range(0, x.shape[0], chunk):
+        rows = slice(start, start + chunk)
+        _, covariance, _ = log_posterior.onset_covariance(x[rows])
+        pointwise[rows] = scatter_conditional_pointwise(log_posterior.data, impacts[rows],
+                                                        covariance)
+        noise[rows] = scatter_noise(covariance, rng)
+    return pointwise, noise

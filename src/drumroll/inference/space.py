@@ -22,6 +22,10 @@ from drumroll.quantities import STICK_DIMENSIONS
 #: Distribution of the onset jitter when the config gives none (SI: 0.01 to 10 ms, scale-free).
 DEFAULT_JITTER_PRIOR: Distribution = LogUniform(low=1e-5, high=1e-2)
 
+#: The restitution's bounce-to-bounce scatter (:mod:`drumroll.inference.scatter`), a
+#: parameter of the noise of every model when the config gives it a prior.
+SCATTER = "restitution_scatter"
+
 #: Stick dimensions: the internal name under which an uncertain one is sampled → its field.
 STICK_PARAMETERS = {q.name: q.field for q in STICK_DIMENSIONS.values()}
 
@@ -58,6 +62,8 @@ class ParameterSpace:
         forward = forward_model(model)
         priors: dict[str, Distribution] = {name: config.priors[name] for name in forward.parameters}
         priors["jitter"] = config.priors.get("jitter", DEFAULT_JITTER_PRIOR)
+        if SCATTER in config.priors:
+            priors[SCATTER] = config.priors[SCATTER]
         if forward.needs_stick and config.stick is not None:
             for name, field in STICK_PARAMETERS.items():
                 priors[name] = getattr(config.stick, field)
@@ -156,14 +162,32 @@ class ParameterSpace:
             Shapes ``(batch, N + 1)`` and ``(batch,)``.
         """
         x = np.atleast_2d(x)
-        values = {name: x[:, i] for name, i in self._column.items()}
-        values.update((name, self._fixed[name]) for name in self._kernel_fixed)
-        impacts, valid = self.forward.impacts(values, n_flights, self._stick_shape,
-                                              self.config.gravity)
+        impacts, valid = self.forward.impacts(self._kernel_values(x), n_flights,
+                                              self._stick_shape, self.config.gravity)
         if impacts.shape[0] != x.shape[0]:  # every physical parameter fixed
             impacts = np.broadcast_to(impacts, (x.shape[0], n_flights + 1))
             valid = np.broadcast_to(valid, (x.shape[0],))
         return impacts, valid
+
+    def impacts_and_slopes(self, x: NDArray, n_flights: int
+                           ) -> tuple[NDArray, NDArray, NDArray]:
+        """:meth:`impacts`, and the flights' slopes ∂T_k/∂u_k
+        (:meth:`~drumroll.physics.model.ForwardModel.restitution_slopes`), shape
+        ``(batch, N)``: what a scattering restitution needs."""
+        x = np.atleast_2d(x)
+        flights, slopes, valid = self.forward.restitution_slopes(
+            self._kernel_values(x), n_flights, self._stick_shape, self.config.gravity)
+        shape = (x.shape[0], n_flights)
+        flights, slopes = np.broadcast_to(flights, shape), np.broadcast_to(slopes, shape)
+        impacts = np.zeros((x.shape[0], n_flights + 1))
+        np.cumsum(flights, axis=1, out=impacts[:, 1:])
+        return impacts, slopes, np.broadcast_to(valid, shape[:1])
+
+    def _kernel_values(self, x: NDArray) -> dict[str, NDArray | float]:
+        """The forward kernel's arguments for the rows of ``x``: columns and fixed values."""
+        values: dict[str, NDArray | float] = {name: x[:, i] for name, i in self._column.items()}
+        values.update((name, self._fixed[name]) for name in self._kernel_fixed)
+        return values
 
     def value(self, x: NDArray, name: str) -> NDArray | float:
         """Column ``name`` of ``x`` (shape ``(batch, ndim)``), or its fixed value."""

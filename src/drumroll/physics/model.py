@@ -16,6 +16,7 @@ Adding a model is one module with one subclass, one line in the registry, and it
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from typing import ClassVar
@@ -28,6 +29,9 @@ from drumroll.physics.geometry import StickGeometry
 
 #: Parameter values by internal name (SI): arrays of one batch shape, or scalars.
 Values = Mapping[str, ArrayLike]
+#: Step in ln α of :meth:`ForwardModel.restitution_slopes`' difference: truncation error
+#: ~k·h/2 relative (5e-5 at k = 100), round-off ~1e-16/h.
+_SLOPE_STEP = 1e-6
 
 
 class ForwardModel(ABC):
@@ -94,6 +98,37 @@ class ForwardModel(ABC):
     def contact_angle(self, ratio: NDArray) -> NDArray:
         """θ_C from h / (L − d): the inverse of :meth:`height_ratio`."""
         raise NotImplementedError(f"the {self.name} model has no stick")
+
+    #: Whether the flights are T_k = t_B α^k exactly (then ∂T_k/∂u_k = T_k, no difference).
+    geometric_flights: ClassVar[bool] = False
+
+    def restitution_slopes(self, values: Values, n_flights: int, stick_shape: str | None = None,
+                           g: float = 9.81) -> tuple[NDArray, NDArray, NDArray]:
+        """Flights T_k, their slopes ∂T_k/∂u_k, and where they are valid.
+
+        Every model here loses speed only at the impacts (energy is conserved in flight), so
+        the rebound speed after k impacts is the contact speed times α_1 ⋯ α_k, and flight k
+        depends on the restitutions only through u_k = Σ_{j≤k} ln α_j (= k ln α for a constant
+        α, eq. 9). A change ε_j of one bounce's ln α_j therefore moves flight k ≥ j by
+        ``slope_k · ε_j`` to first order: this is what a scatter of the restitution from
+        bounce to bounce does to the flights (:mod:`drumroll.inference.scatter`).
+
+        Geometric models (T_k = t_B e^{u_k}) have slope_k = T_k exactly; the others take a
+        backward difference in ln α (α e^{−h} keeps α ≤ 1), relative error ~k·h.
+
+        Returns
+        -------
+        flights, slopes, valid
+            Shapes ``(batch, N)``, ``(batch, N)`` and ``(batch,)``.
+        """
+        flights, valid = self.flights(values, n_flights, stick_shape, g)
+        if self.geometric_flights:
+            return flights, flights, valid
+        lower = dict(values)
+        lower["alpha"] = np.asarray(values["alpha"], float) * math.exp(-_SLOPE_STEP)
+        below, _ = self.flights(lower, n_flights, stick_shape, g)
+        k = np.arange(1.0, n_flights + 1.0)
+        return flights, (flights - below) / (k * _SLOPE_STEP), valid
 
     def impacts(self, values: Values, n_flights: int, stick_shape: str | None = None,
                 g: float = 9.81) -> tuple[NDArray, NDArray]:

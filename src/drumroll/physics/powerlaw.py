@@ -37,6 +37,7 @@ class PowerLaw(ForwardModel):
     colour = "#009E73"
     linestyle = (0, (1, 1.6))
     parameters = ("alpha", "t_b")
+    geometric_flights = True
 
     def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,
                 g: float = 9.81) -> tuple[NDArray, NDArray]:

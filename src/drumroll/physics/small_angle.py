@@ -36,6 +36,7 @@ class SmallAngle(ForwardModel):
     linestyle = (0, (5, 2))
     parameters = PENDULUM_PARAMETERS
     needs_stick = True
+    geometric_flights = True
 
     def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,
                 g: float = 9.81) -> tuple[NDArray, NDArray]:

@@ -103,7 +103,7 @@ def draw_residuals(summary: Summary):
     handles = [Line2D([], [], ls="", marker="o", ms=4, color=DATA_COLOR, mfc="white",
                       mew=1.1, label="detected onsets")]
     handles.append(Patch(facecolor="0.5", alpha=0.25, lw=0,
-                         label=f"{BAND:.0%} posterior predictive (model + jitter)"))
+                         label=f"{BAND:.0%} posterior predictive (model + its noise)"))
     if summary.models[models[0]].residuals.model_low:
         handles.append(Patch(facecolor="0.5", alpha=0.55, lw=0,
                              label=f"{BAND:.0%} model only (noise-free)"))
