@@ -42,6 +42,7 @@ from drumroll.errors import ConfigError
 from drumroll.physics import GEOMETRIC_MODELS, MODELS, STANDARD_GRAVITY, STICK_SHAPES
 from drumroll.physics.geometry import StickGeometry
 from drumroll.physics.models import parameter_keys
+from drumroll.physics.release import tip_strikes_first
 from drumroll.quantities import DEFAULT_VALUES, PARAMETERS, STICK_DIMENSIONS
 
 #: The sections of the file format read by later stages (the simulator, the sampler, …).
@@ -271,6 +272,15 @@ def _check_geometry(stick: StickSpec, priors: dict[str, Distribution]) -> None:
         raise ConfigError(f"priors.height_mm: the tip cannot reach the drumhead from "
                           f"h = {height * mm:g} mm with the pivot at d = {pivot * mm:g} mm "
                           f"(needs h < L - d = {reach * mm:.1f} mm)")
+    if stick.shape != "thin-rod" and not tip_strikes_first(
+            stick.shape, geometry.tip, geometry.radius, height, reach):
+        rim = math.degrees(math.atan2(geometry.radius, geometry.tip))
+        raise ConfigError(
+            f"priors.height_mm: at h = {height * mm:g} mm and d = {pivot * mm:g} mm the stick "
+            f"meets the drumhead at {math.degrees(math.asin(height / reach)):.1f}°, below its "
+            f"cone's half-angle atan(R / l2) = {rim:.1f}°, so the rim of the cone strikes before "
+            f"the tip, which no model here describes (raise h above "
+            f"{reach * math.sin(math.radians(rim)) * mm:.1f} mm)")
     angle = priors.get("release_angle", Fixed(0.0)).median()
     contact = math.asin(height / reach)
     if angle >= contact:

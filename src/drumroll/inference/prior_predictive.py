@@ -18,6 +18,7 @@ from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
 from drumroll.physics import MODELS, REASONS, Bounces, bounce_sequence
 from drumroll.physics.models import forward_model, parameter_keys
+from drumroll.physics.release import tip_contact_only
 from drumroll.quantities import DERIVED
 
 
@@ -122,6 +123,8 @@ def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_
             raise DrumrollError(f"the {model} model needs a [stick] section in the config")
         given.update(stick=config.stick.sample(rng, n_draws), g=config.gravity)
     bounces = bounce_sequence(model, n_flights=n_flights, **given)
+    if forward.needs_stick:  # the models assume the tip strikes: say where it would not
+        bounces = tip_contact_only(bounces, given["stick"], draws["pivot"], draws["height"])
     valid = bounces.valid
     reasons = Counter(REASONS[code] for code in bounces.reason[~valid])
     if not valid.any():

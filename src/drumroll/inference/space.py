@@ -17,6 +17,7 @@ from drumroll.distributions import Distribution, Fixed, LogUniform
 from drumroll.inference.prior_table import PriorTable
 from drumroll.physics import Bounces, StickGeometry
 from drumroll.physics.models import forward_model
+from drumroll.physics.release import rim_strikes_first, tip_contact_only
 from drumroll.quantities import STICK_DIMENSIONS
 
 #: Distribution of the onset jitter when the config gives none (SI: 0.01 to 10 ms, scale-free).
@@ -140,7 +141,9 @@ class ParameterSpace:
         if self.forward.needs_stick:
             stick = StickGeometry(self.config.stick.shape, v["stick_length"], v["stick_tip"],
                                   v["stick_radius"])
-        return self.forward.bounces(v, n_flights, stick, self.config.gravity)
+        bounces = self.forward.bounces(v, n_flights, stick, self.config.gravity)
+        return (tip_contact_only(bounces, stick, v["pivot"], v["height"])
+                if self.forward.needs_stick else bounces)
 
     def impacts(self, x: NDArray, n_flights: int) -> tuple[NDArray, NDArray]:
         """Impact times τ_0 … τ_N of every row of ``x`` and where they are valid: the model's
@@ -162,8 +165,10 @@ class ParameterSpace:
             Shapes ``(batch, N + 1)`` and ``(batch,)``.
         """
         x = np.atleast_2d(x)
-        impacts, valid = self.forward.impacts(self._kernel_values(x), n_flights,
-                                              self._stick_shape, self.config.gravity)
+        values = self._kernel_values(x)
+        impacts, valid = self.forward.impacts(values, n_flights, self._stick_shape,
+                                              self.config.gravity)
+        valid = valid & self._tip_first(values)
         if impacts.shape[0] != x.shape[0]:  # every physical parameter fixed
             impacts = np.broadcast_to(impacts, (x.shape[0], n_flights + 1))
             valid = np.broadcast_to(valid, (x.shape[0],))
@@ -175,13 +180,24 @@ class ParameterSpace:
         (:meth:`~drumroll.physics.model.ForwardModel.restitution_slopes`), shape
         ``(batch, N)``: what a scattering restitution needs."""
         x = np.atleast_2d(x)
+        values = self._kernel_values(x)
         flights, slopes, valid = self.forward.restitution_slopes(
-            self._kernel_values(x), n_flights, self._stick_shape, self.config.gravity)
+            values, n_flights, self._stick_shape, self.config.gravity)
+        valid = valid & self._tip_first(values)
         shape = (x.shape[0], n_flights)
         flights, slopes = np.broadcast_to(flights, shape), np.broadcast_to(slopes, shape)
         impacts = np.zeros((x.shape[0], n_flights + 1))
         np.cumsum(flights, axis=1, out=impacts[:, 1:])
         return impacts, slopes, np.broadcast_to(valid, shape[:1])
+
+    def _tip_first(self, values: dict[str, NDArray | float]) -> NDArray | bool:
+        """Where the tip, not the rim of its cone, strikes first (every model assumes it:
+        :func:`~drumroll.physics.release.tip_strikes_first`)."""
+        if not self.forward.needs_stick or self._stick_shape == "thin-rod":
+            return True
+        return ~rim_strikes_first(self._stick_shape, values["stick_length"],
+                                  values["stick_tip"], values["stick_radius"], values["pivot"],
+                                  values["height"])
 
     def _kernel_values(self, x: NDArray) -> dict[str, NDArray | float]:
         """The forward kernel's arguments for the rows of ``x``: columns and fixed values."""

@@ -21,10 +21,12 @@ REASONS: tuple[str, ...] = (
     "the flight time must be positive",
     "the pivot must lie on the stick (d >= 0)",
     "every parameter must be a finite number",
+    "the rim of the cone strikes the drumhead before its tip (the contact angle is below "
+    "atan(R / l2)), which no model here describes",
 )
 OK, PIVOT_PAST_CM, TIP_CANNOT_REACH, HEIGHT_NOT_POSITIVE, RELEASED_BELOW_CONTACT, \
     BAD_RELEASE_ANGLE, NEGATIVE_RELEASE_SPEED, BAD_ALPHA, OVER_THE_TOP, BAD_T_B, \
-    PIVOT_OFF_STICK, NOT_FINITE = range(len(REASONS))
+    PIVOT_OFF_STICK, NOT_FINITE, RIM_FIRST = range(len(REASONS))
 
 
 def first_failure(checks: list[tuple[int, NDArray[np.bool_]]], shape: tuple[int, ...]

@@ -15,8 +15,11 @@ from drumroll.physics.bounces import (
     NOT_FINITE,
     PIVOT_OFF_STICK,
     PIVOT_PAST_CM,
+    RIM_FIRST,
     TIP_CANNOT_REACH,
+    Bounces,
     first_failure,
+    masked_bounces,
 )
 from drumroll.physics.geometry import STICK_SHAPES, StickGeometry, mass_properties_squared
 
@@ -98,6 +101,49 @@ def swing(shape: str, length: ArrayLike, tip: ArrayLike, radius: ArrayLike, pivo
         )
         gamma = g * (centre_of_mass - pivot) / k_o_squared
         return checks, (gamma, arm, height / arm, release_speed / arm)
+
+
+def tip_strikes_first(shape: str, tip: ArrayLike, radius: ArrayLike, height: ArrayLike,
+                      arm: ArrayLike) -> NDArray:
+    """Whether the tip, not the rim of its cone, meets the drumhead first.
+
+    A cone of length l2 and base radius R has half-angle β = atan(R / l2); with the stick at
+    θ_C to the head its lowest generator rises towards the tip when θ_C < β, so the rim
+    strikes first (h < 34 mm at d = 131 mm for the paper's stick). Every model here assumes the
+    tip strikes: sin θ_C = h / (L − d) ≥ sin β = R / √(R² + l2²). A thin rod has no cone.
+
+    The forward models themselves are mathematics and compute any height (the tests compare
+    them with ODE integration down to 4 mm); what a user runs (the config's nominal set-up,
+    ``predict``'s draws, ``estimate``'s posterior) is held to this check.
+    """
+    if shape == "thin-rod":
+        return np.ones(np.shape(height), bool)
+    return height * np.hypot(radius, tip) >= radius * arm
+
+
+def rim_strikes_first(shape: str, length: ArrayLike, tip: ArrayLike, radius: ArrayLike,
+                      pivot: ArrayLike, height: ArrayLike) -> NDArray:
+    """Where the rim of the cone, not the tip, would strike first (:func:`tip_strikes_first`)
+    for a stick pivoted at ``pivot`` at ``height``: False wherever the set-up is otherwise
+    impossible (its own reason applies there)."""
+    with np.errstate(all="ignore"):
+        total_length, _, _ = mass_properties_squared(shape, length, tip, radius, pivot)
+        arm = total_length - np.asarray(pivot, float)
+        reachable = (np.asarray(height, float) > 0) & (np.asarray(height, float) < arm)
+        return reachable & ~tip_strikes_first(shape, tip, radius, height, arm)
+
+
+def tip_contact_only(bounces: Bounces, stick: StickGeometry, pivot: ArrayLike,
+                     height: ArrayLike) -> Bounces:
+    """``bounces`` with every point where the rim would strike first made invalid (reason
+    :data:`~drumroll.physics.bounces.RIM_FIRST`, fields NaN): what a user's run is held to."""
+    rim = rim_strikes_first(stick.shape, stick.length, stick.tip, stick.radius, pivot,
+                            height) & bounces.valid
+    if not np.any(rim):
+        return bounces
+    reason = np.where(rim, np.int8(RIM_FIRST), bounces.reason)
+    return masked_bounces(reason, **{name: getattr(bounces, name) for name in (
+        "alpha", "flights", "t_c", "t_b", "theta_c", "omega_c", "tip_speed_c")})
 
 
 def passes(checks: tuple[tuple[int, NDArray], ...], valid: NDArray) -> NDArray:

@@ -27,6 +27,7 @@ from drumroll.config import parse_config
 from drumroll.distributions import Fixed, HalfNormal, Normal
 from drumroll.inference.space import DEFAULT_JITTER_PRIOR, ParameterSpace
 from drumroll.physics import StickGeometry, bounce_sequence
+from drumroll.physics.bounces import RIM_FIRST, masked_bounces
 from drumroll.physics.models import MODELS
 from tests.unit.inference.test_posterior import _config
 
@@ -165,10 +166,21 @@ def _direct(space: ParameterSpace, x: np.ndarray, n: int):
         return bounce_sequence("powerlaw", alpha=get("alpha"), t_b=get("t_b"), n_flights=n)
     stick = StickGeometry(config.stick.shape, get("stick_length"), get("stick_tip"),
                           get("stick_radius"))
-    return bounce_sequence(space.model, alpha=get("alpha"), pivot=get("pivot"),
-                           height=get("height"), release_speed=get("release_speed"),
-                           release_angle=get("release_angle"), stick=stick, n_flights=n,
-                           g=config.gravity)
+    bounces = bounce_sequence(space.model, alpha=get("alpha"), pivot=get("pivot"),
+                              height=get("height"), release_speed=get("release_speed"),
+                              release_angle=get("release_angle"), stick=stick, n_flights=n,
+                              g=config.gravity)
+    if config.stick.shape == "thin-rod":
+        return bounces
+    # A run is held to tip contact: the contact angle asin(h / (L − d)) at least the cone's
+    # half-angle atan(R / l2), else the rim strikes first (physics.md).
+    arm = get("stick_length") + get("stick_tip") - get("pivot")
+    rim = np.arcsin(np.clip(get("height") / arm, -1, 1)) < np.arctan2(get("stick_radius"),
+                                                                       get("stick_tip"))
+    rim = np.broadcast_to(rim, bounces.reason.shape) & bounces.valid
+    return masked_bounces(np.where(rim, np.int8(RIM_FIRST), bounces.reason), **{
+        name: getattr(bounces, name) for name in ("alpha", "flights", "t_c", "t_b", "theta_c",
+                                                  "omega_c", "tip_speed_c")})
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
