@@ -30,7 +30,7 @@ from drumroll.onsets.odf import OdfParams
 from drumroll.onsets.prediction import flight_predictor
 from drumroll.onsets.roll import Roll
 from drumroll.onsets.sequence import retime_by_law
-from drumroll.onsets.start import first_in_ring, on_course, time_at_start
+from drumroll.onsets.start import first_in_ring, on_course, time_at_start, with_floor
 from drumroll.onsets.table import OnsetTable
 from drumroll.onsets.tracking import Track, TrackParams, explain, track
 
@@ -48,6 +48,10 @@ class Context:
     #: The stretch (samples) a lossy file's codec may spread noise ahead of an impact by
     #: (:func:`~drumroll.audio.timing.pre_echo_s`); 0 for lossless audio.
     codec_block: int = 0
+    #: A lossy file's timing floor (sd, seconds; :func:`~drumroll.audio.timing.timing_floor`):
+    #: part of every onset's timing wherever the stages test an onset against the flight
+    #: law (:func:`~.start.with_floor`); 0 for lossless audio.
+    floor_s: float = 0.0
 
 
 Stage = Callable[[Roll, Excerpt, Context], Roll]
@@ -82,7 +86,7 @@ def sound_starts(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
 def off_course(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
     """Onsets far from where the bounces before them put them dropped
     (:func:`~.start.on_course`)."""
-    return on_course(roll, OFF_LAW)
+    return on_course(roll, OFF_LAW, ex.floor_s)
 
 
 def in_ring(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
@@ -113,8 +117,9 @@ def completed(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
     by bounces found by their whole sound where the flight law puts them
     (:func:`~.envelope.next_by_envelope`), up to the fewest onsets that make a roll."""
     while 3 <= len(roll) < ctx.track.min_onsets:
-        predict = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s,
-                                   ctx.follow.history, ctx.follow.ratio_jitter)
+        predict = flight_predictor(roll.time_s, roll.bounce,
+                                   with_floor(roll.sigma_s, ex.floor_s), ctx.follow.history,
+                                   ctx.follow.ratio_jitter)
         if predict is None:
             break
         dt, s_log = predict(1)
@@ -231,7 +236,7 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     channel = earliest_channel(cands, n_channels, rate, odf, excerpt)
     ctx = Context(tparams, FollowParams(ratio_jitter=tparams.ratio_jitter,
                                         min_interval_s=tparams.min_interval_s),
-                  stream.total / rate, codec_block)
+                  stream.total / rate, codec_block, _codec_floor_s(info))
     rolls = _rolls(cands, ctx, odf, name, rate,
                    lambda start, stop: excerpt(start, stop, channel))
     table = _table(rolls, cands, name, rate, all_candidates, channel)
@@ -247,6 +252,16 @@ def _with_codec_floor(table: OnsetTable, info: AudioInfo) -> OnsetTable:
         return table
     warnings.warn(floor.message, DrumrollWarning, stacklevel=3)
     return replace(table, sigma_s=np.hypot(table.sigma_s, floor.sd_s))
+
+
+def _codec_floor_s(info: AudioInfo | None) -> float:
+    """The timing floor (sd, seconds) of a lossy file's codec, which the stages allow for
+    while they test onsets against the flight law; 0 for lossless audio, whose onsets take
+    the stages exactly as before (a low sample rate's floor is only added to the table)."""
+    if info is None or info.lossless:
+        return 0.0
+    floor = timing_floor(info)
+    return 0.0 if floor is None else floor.sd_s
 
 
 def _samples(x: np.ndarray, name: str) -> np.ndarray:
@@ -331,7 +346,7 @@ def _excerpt_around(roll: Roll, ctx: Context, odf: OdfParams, rate: int,
     start = max(int((t[0] - _CONTEXT_S) * rate), 0)
     end_s = min(_predicted_end(roll), ctx.end_s)
     stop = min(int((end_s + _CONTEXT_S) * rate), int(ctx.end_s * rate))
-    return Excerpt(excerpt(start, stop), start, rate, odf, ctx.codec_block)
+    return Excerpt(excerpt(start, stop), start, rate, odf, ctx.codec_block, ctx.floor_s)
 
 
 def _table(rolls: list[Roll], c: Candidates, name: str, rate: int, all_candidates: bool,

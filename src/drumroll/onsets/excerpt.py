@@ -48,12 +48,17 @@ class Excerpt:
     codec_block
         For a lossy file, the stretch (samples) its codec may spread noise ahead of an
         impact by (:func:`~.refine.out_of_codec_noise`); 0 for lossless audio.
+    floor_s
+        For a lossy file, its codec's timing floor (sd, seconds;
+        :func:`~drumroll.audio.timing.timing_floor`), allowed for wherever an onset is
+        tested against the flight law (:func:`~.start.with_floor`); 0 for lossless audio.
     """
 
     def __init__(self, x: np.ndarray, start: int, sample_rate: int, odf: OdfParams,
-                 codec_block: int = 0) -> None:
+                 codec_block: int = 0, floor_s: float = 0.0) -> None:
         self.x, self.start, self.sr, self.odf = x, start, sample_rate, odf
         self.codec_block = int(codec_block)
+        self.floor_s = float(floor_s)
         self.hop = odf.hop(sample_rate)
         # Frames on the absolute grid of the first pass.
         self.skip = (-start) % self.hop

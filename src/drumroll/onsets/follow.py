@@ -37,7 +37,9 @@ from drumroll.onsets.start import (
     StartPrior,
     common_margin_db,
     law_prior,
+    off_sd,
     start_of_sound,
+    with_floor,
 )
 
 #: Predictive sd (of the bounces before) beyond which a sound found in a window is not
@@ -98,8 +100,8 @@ def follow(roll: Roll, ex: Excerpt, p: FollowParams, stop_s: float) -> Roll:
     search = _Search(ex, p, roll)
     n = 1
     while len(roll) >= 3:
-        pred = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s, p.history,
-                                p.ratio_jitter)
+        pred = flight_predictor(roll.time_s, roll.bounce, with_floor(roll.sigma_s, ex.floor_s),
+                                p.history, p.ratio_jitter)
         if pred is None:
             break
         dt, s_log = pred(n)
@@ -107,7 +109,7 @@ def follow(roll: Roll, ex: Excerpt, p: FollowParams, stop_s: float) -> Roll:
         if single < p.min_interval_s or roll.time_s[-1] + dt > stop_s:
             break
         got = search(roll.time_s[-1], dt, s_log, p.false_alarm / n,
-                     prior=law_prior(roll, int(roll.bounce[-1]) + n))
+                     prior=law_prior(roll, int(roll.bounce[-1]) + n, ex.floor_s))
         if got is None:
             n += 1
             if n > p.max_skip + 1:
@@ -176,7 +178,8 @@ class _Search:
         if r.snr_db < p.min_snr_db and not _resonant(r.sample / ex.sr, r, prior, p):
             return None  # there is a sound, but not one that can be timed
         r = start_of_sound(ex, r, dt, self.margin, prior)
-        if prior is not None and abs(r.sample / ex.sr - prior.mean_s) > OFF_LAW * prior.sd_s:
+        if prior is not None and abs(r.sample / ex.sr - prior.mean_s) > OFF_LAW * off_sd(
+                prior, r.sigma_s, ex.floor_s):
             # Far from where the bounces before put this one: a sound that is not it, or
             # the bounce timed where it cannot be told (the window counts as unheard).
             return None

@@ -100,7 +100,27 @@ class StartPrior:
         return student_t_logpdf_fixed(z * z, 4.0)
 
 
-def law_prior(roll: Roll, bounce: int) -> StartPrior | None:
+def with_floor(sigma_s: np.ndarray, floor_s: float) -> np.ndarray:
+    """Onsets' ``sigma_s`` with a lossy file's timing floor ``floor_s`` (seconds;
+    :func:`~drumroll.audio.timing.timing_floor`) added in quadrature: a codec moves every
+    onset by about that much (the table's ``sigma_s`` gets it at the end), and the flight
+    law's prediction from those onsets is that much less sure. Unchanged for 0 (lossless
+    audio)."""
+    return sigma_s if floor_s == 0.0 else np.hypot(sigma_s, floor_s)
+
+
+def off_sd(prior: StartPrior, sigma_s: float, floor_s: float) -> float:
+    """The sd an onset with timing uncertainty ``sigma_s`` is tested against, off the law's
+    prediction ``prior`` (made with the floor, :func:`with_floor`): the prediction's own sd,
+    and in a lossy file (``floor_s`` > 0) also the onset's, floor included, since its own
+    timing error is in the residual too. A lossless file's onsets are tested against the
+    prediction's sd alone, as before."""
+    if floor_s == 0.0:
+        return prior.sd_s
+    return float(np.hypot(prior.sd_s, with_floor(np.float64(sigma_s), floor_s)))
+
+
+def law_prior(roll: Roll, bounce: int, floor_s: float = 0.0) -> StartPrior | None:
     """Where the roll's onsets put bounce number ``bounce`` (after them): their recent
     flights continued (:func:`~.prediction.flight_predictor`, with the scatter measured on
     them and a floor of :data:`_PRIOR_JITTER`). A local line, not the whole roll's law: a
@@ -108,11 +128,12 @@ def law_prior(roll: Roll, bounce: int) -> StartPrior | None:
     wherever the real law is not of its form (a pendulum released with speed, a ball whose
     restitution drifts), while one step of the recent trend is not. None for fewer than
     :data:`_MIN_FLIGHTS` recent flights: a line through fewer leaves too few to measure the
-    scatter about it."""
+    scatter about it. A lossy file's timing floor ``floor_s`` is added to the onsets'
+    ``sigma_s`` (:func:`with_floor`)."""
     if int(np.count_nonzero(np.diff(roll.bounce)[-_HISTORY:] == 1)) < _MIN_FLIGHTS:
         return None
-    predict = flight_predictor(roll.time_s, roll.bounce, roll.sigma_s, _HISTORY,
-                               ratio_jitter=_PRIOR_JITTER)
+    predict = flight_predictor(roll.time_s, roll.bounce, with_floor(roll.sigma_s, floor_s),
+                               _HISTORY, ratio_jitter=_PRIOR_JITTER)
     if predict is None:
         return None
     dt, s_log = predict(int(bounce - roll.bounce[-1]))
@@ -252,22 +273,25 @@ def time_at_start(roll: Roll, ex: Excerpt) -> Roll:
         onset = round(out.time_s[j] * sr)
         r = Refined(onset, out.amplitude[j], out.snr_db[j], out.sigma_s[j], 0.0)
         moved = start_of_sound(ex, r, out.time_s[j] - out.time_s[j - 1], margin,
-                               law_prior(out.subset(slice(0, j)), int(out.bounce[j])))
+                               law_prior(out.subset(slice(0, j)), int(out.bounce[j]),
+                                         ex.floor_s))
         if moved.sample != onset:
             out = _replaced(out, j, moved, sr)
     return out
 
 
-def on_course(roll: Roll, off: float) -> Roll:
+def on_course(roll: Roll, off: float, floor_s: float = 0.0) -> Roll:
     """The roll without the onsets, after its third, that lie more than ``off`` predictive
     sd from where the onsets before them put them (:func:`law_prior`): a sound that is not
-    that bounce, or the bounce timed where its start cannot be told. Bounce numbers are
-    kept, so a dropped onset is a gap."""
+    that bounce, or the bounce timed where its start cannot be told (:func:`off_sd`; a lossy
+    file's timing floor ``floor_s`` is allowed for). Bounce numbers are kept, so a dropped
+    onset is a gap."""
     keep = np.ones(len(roll), dtype=bool)
     for j in range(3, len(roll)):
         kept = roll.subset(np.flatnonzero(keep[:j]))
-        prior = law_prior(kept, int(roll.bounce[j]))
-        if prior is not None and abs(roll.time_s[j] - prior.mean_s) > off * prior.sd_s:
+        prior = law_prior(kept, int(roll.bounce[j]), floor_s)
+        if prior is not None and abs(roll.time_s[j] - prior.mean_s) > off * off_sd(
+                prior, float(roll.sigma_s[j]), floor_s):
             keep[j] = False
     return roll.subset(np.flatnonzero(keep))
 
