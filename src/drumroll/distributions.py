@@ -64,6 +64,16 @@ class Distribution(ABC):
         """The prior median: a representative value for checks and defaults."""
         return float(self.ppf(0.5))
 
+    def widened(self, factor: float) -> Distribution | None:
+        """The same family ``factor`` times as wide (a prior-width sensitivity check), or None
+        where the family has no width to scale (a fixed value, a beta).
+
+        A range keeps its lower end (the physical one, for the scale parameters priors are
+        written on) and scales its length, in log x for a log-uniform; a normal, half-normal
+        or log-normal scales its σ. The physical truncation is kept.
+        """
+        return None
+
 
 @dataclass(frozen=True)
 class Fixed(Distribution):
@@ -222,6 +232,10 @@ class Uniform(Truncated):
     def _scaled_params(self, factor):
         return {"low": self.low * factor, "high": self.high * factor}
 
+    def widened(self, factor: float) -> Uniform:
+        high = self.quantile(factor, self.low, self.high)
+        return replace(self, high=float(high), upper=math.inf)
+
     def describe(self) -> str:
         return f"uniform(low={self.low:g}, high={self.high:g})"
 
@@ -274,6 +288,9 @@ class Normal(Truncated):
     def _scaled_params(self, factor):
         return {"mu": self.mu * factor, "sigma": self.sigma * factor}
 
+    def widened(self, factor: float) -> Truncated:
+        return replace(self, sigma=self.sigma * factor)
+
     def describe(self) -> str:
         return f"normal(mu={self.mu:g}, sigma={self.sigma:g})"
 
@@ -304,6 +321,9 @@ class HalfNormal(Truncated):
 
     def _scaled_params(self, factor):
         return {"sigma": self.sigma * factor}
+
+    def widened(self, factor: float) -> Truncated:
+        return replace(self, sigma=self.sigma * factor)
 
     def describe(self) -> str:
         return f"halfnormal(sigma={self.sigma:g})"
@@ -339,6 +359,9 @@ class LogNormal(Truncated):
 
     def _scaled_params(self, factor):
         return {"mu": self.mu + math.log(factor)}
+
+    def widened(self, factor: float) -> Truncated:
+        return replace(self, sigma=self.sigma * factor)
 
     def describe(self) -> str:
         return f"lognormal(mu={self.mu:g}, sigma={self.sigma:g})"

@@ -407,7 +407,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
     rows, preferred, verdict, loos = compare_models(
         {m: f.idata for m, f in fits.items()}, config.model, evidences, loos,
-        inadequate=[m for m, a in adequacies.items() if a.adequate is False])
+        inadequate=[m for m, a in adequacies.items() if a.adequate is False],
+        priors={m: f.log_posterior.space.priors for m, f in fits.items()})
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.

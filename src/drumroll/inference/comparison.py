@@ -7,7 +7,10 @@ A preference is claimed only when it is clear (the verdict must not over-claim):
 
 * LOO decides when |Δelpd| > 4 and |Δelpd| > 2 × its standard error (below 4 the standard
   error itself is unreliable: Sivula, Magnusson & Vehtari 2022);
-* the Bayes factor decides when |ln B| > 1 (Jeffreys' "substantial") and > 2 × its error;
+* the Bayes factor decides when |ln B| > 1 (Jeffreys' "substantial") and > 2 × its error,
+  unless it is prior-dominated (:mod:`~drumroll.inference.prior_sensitivity`: it moves by more
+  than 1 nat when the priors the two models do not share are half or twice as wide), when it
+  is reported but decides nothing;
 * a model is preferred over another when LOO decides for it and the Bayes factor does not
   decide against it, or the Bayes factor decides for it and LOO does not decide against it.
 """
@@ -16,13 +19,15 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import arviz as az
 import numpy as np
 
+from drumroll.distributions import Distribution
 from drumroll.inference.evidence import Evidence
+from drumroll.inference.prior_sensitivity import PRIOR_DOMINATED_NATS, bayes_factor_shifts
 from drumroll.inference.results import ComparisonRow, LooSummary
 from drumroll.physics.models import MODELS
 
@@ -94,7 +99,8 @@ def decide(elpd_diff: float, elpd_diff_se: float, log_bf: float | None = None,
 def compare_models(idatas: dict[str, az.InferenceData], main: str,
                    evidences: dict[str, Evidence] | None = None,
                    loos: dict[str, LooResult] | None = None,
-                   inadequate: Collection[str] = ()
+                   inadequate: Collection[str] = (),
+                   priors: Mapping[str, Mapping[str, Distribution]] | None = None
                    ) -> tuple[tuple[ComparisonRow, ...], str | None, str,
                               dict[str, LooResult]]:
     """Compare ``main`` with every other fitted model (``loos``: each model's PSIS-LOO where
@@ -102,7 +108,8 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
 
     A model in ``inadequate`` (its residuals fail :mod:`~drumroll.inference.adequacy`'s
     checks) is never the preferred one: that it fits better than the others does not make it
-    right, and the verdict says so.
+    right, and the verdict says so. ``priors`` (each model's priors by internal name) give
+    every Bayes factor its prior-width sensitivity; a prior-dominated one decides nothing.
 
     Returns
     -------
@@ -121,16 +128,23 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
         diff_i = loos[main].pointwise - loos[name].pointwise
         diff = float(diff_i.sum())
         diff_se = float(math.sqrt(diff_i.size * np.var(diff_i)))
-        log_bf = log_bf_err = None
+        log_bf = log_bf_err = shifts = None
         if main in evidences and name in evidences:
             log_bf = evidences[main].log_z - evidences[name].log_z
             log_bf_err = math.hypot(evidences[main].log_z_err, evidences[name].log_z_err)
+            if priors and main in priors and name in priors:
+                shifts = bayes_factor_shifts(idatas[main].posterior, priors[main],
+                                             idatas[name].posterior, priors[name])
+        dominated = None if shifts is None else bool(shifts[1] > PRIOR_DOMINATED_NATS)
         rows.append(ComparisonRow(
             model=name, elpd_loo_diff=diff, elpd_loo_diff_se=diff_se, elpd_loo=loos[name].elpd,
             elpd_loo_se=loos[name].se, pareto_k_bad=tuple(loos[name].bad_onsets),
-            log_bayes_factor=log_bf, log_bayes_factor_err=log_bf_err))
-        sentences.append(_sentence(main, name, decide(diff, diff_se, log_bf, log_bf_err),
-                                   diff, diff_se, log_bf, log_bf_err))
+            log_bayes_factor=log_bf, log_bayes_factor_err=log_bf_err,
+            log_bayes_factor_half_width=None if shifts is None else log_bf + shifts[0][0],
+            log_bayes_factor_double_width=None if shifts is None else log_bf + shifts[0][1],
+            prior_dominated=dominated))
+        sentences.append(_sentence(main, name, decide(*_deciding(rows[-1])), diff, diff_se,
+                                   log_bf, log_bf_err, dominated))
     preferred = _preferred(main, rows)
     verdict = "; ".join(sentences) if sentences else "no other model was fitted"
     if preferred is not None and preferred in inadequate:
@@ -142,11 +156,18 @@ def compare_models(idatas: dict[str, az.InferenceData], main: str,
     return tuple(rows), preferred, verdict, loos
 
 
+def _deciding(row: ComparisonRow) -> tuple[float, float, float | None, float | None]:
+    """What :func:`decide` weighs for one row: LOO, and the Bayes factor unless it is
+    prior-dominated."""
+    if row.prior_dominated:
+        return row.elpd_loo_diff, row.elpd_loo_diff_se, None, None
+    return (row.elpd_loo_diff, row.elpd_loo_diff_se, row.log_bayes_factor,
+            row.log_bayes_factor_err)
+
+
 def _preferred(main: str, rows: list[ComparisonRow]) -> str | None:
     """The model clearly better than every other one, or None."""
-    outcomes = {row.model: decide(row.elpd_loo_diff, row.elpd_loo_diff_se,
-                                  row.log_bayes_factor, row.log_bayes_factor_err)
-                for row in rows}
+    outcomes = {row.model: decide(*_deciding(row)) for row in rows}
     if all(o == 1 for o in outcomes.values()):
         return main
     winners = [m for m, o in outcomes.items() if o == -1]
@@ -167,13 +188,16 @@ def _preferred(main: str, rows: list[ComparisonRow]) -> str | None:
 
 
 def _sentence(main: str, other: str, outcome: int, diff: float, diff_se: float,
-              log_bf: float | None, log_bf_err: float | None) -> str:
+              log_bf: float | None, log_bf_err: float | None,
+              dominated: bool | None = None) -> str:
     numbers = f"Δelpd = {diff:.1f} ± {diff_se:.1f}"
     if log_bf is not None:
         # A cheap evidence's error can be ~0.01: give it one significant digit, not "± 0.0".
         decimals = 1 if not log_bf_err or log_bf_err >= 0.05 else min(
             3, -math.floor(math.log10(log_bf_err)))
         numbers += f", log BF = {log_bf:.{decimals}f} ± {log_bf_err:.{decimals}f}"
+        if dominated:
+            numbers += ", prior-dominated: not weighed"
     a, b = (f"the {MODELS[m].title}" if m in MODELS else m for m in (main, other))
     if outcome == 1:
         return f"{a} is preferred over {b} ({numbers})"

@@ -167,6 +167,11 @@ class ComparisonRow(Record):
     pareto_k_bad: tuple[int, ...] = ()
     log_bayes_factor: float | None = None
     log_bayes_factor_err: float | None = None
+    #: ln B with the priors of the parameters only one model samples half / twice as wide
+    #: (:mod:`~drumroll.inference.prior_sensitivity`), and whether it then moves by > 1 nat.
+    log_bayes_factor_half_width: float | None = None
+    log_bayes_factor_double_width: float | None = None
+    prior_dominated: bool | None = None
 
 
 @dataclass(frozen=True)

@@ -151,22 +151,38 @@ def comparison_section(summary: Summary) -> list[str]:
         has_bf = any(_finite(r.log_bayes_factor) for r in rows)
         header = "| compared with | Δelpd_loo (main − model) |"
         rule = "|---|---:|"
+        has_range = any(_finite(r.log_bayes_factor_half_width) for r in rows)
         if has_bf:
             header += " ln B (ln Z_main − ln Z_model) |"
             rule += "---:|"
+        if has_range:
+            header += " ln B, priors only one model has half / twice as wide |"
+            rule += "---:|"
         lines += [header, rule]
         reference = f"| {_cell(f'**{model_name(summary.model)} (`{summary.model}`)**, main')} | "
-        lines.append(reference + "0 (reference) |" + (" 0 (reference) |" if has_bf else ""))
+        lines.append(reference + "0 (reference) |" + (" 0 (reference) |" if has_bf else "")
+                     + (" |" if has_range else ""))
         for row in rows:
             name = f"{model_name(row.model)} (`{row.model}`)"
             line = f"| {_cell(name)} | {_signed(row.elpd_loo_diff, row.elpd_loo_diff_se)} |"
             if has_bf:
                 line += f" {_signed(row.log_bayes_factor, row.log_bayes_factor_err)} |"
+            if has_range:
+                if _finite(row.log_bayes_factor_half_width):
+                    flag = " (prior-dominated: not weighed)" if row.prior_dominated else ""
+                    line += (f" {_signed(row.log_bayes_factor_half_width, None)} / "
+                             f"{_signed(row.log_bayes_factor_double_width, None)}{flag} |")
+                else:
+                    line += " — |"
             lines.append(line)
         lines += ["", "Positive numbers favour the main model: it predicts the onsets better "
                   "(elpd) or is more probable given the data (ln B). A preference is claimed "
                   "only when Δelpd exceeds both 4 and twice its standard error, or |ln B| "
-                  "exceeds both 1 and twice its error, without the other measure disagreeing.",
+                  "exceeds both 1 and twice its error, without the other measure disagreeing. "
+                  "A Bayes factor that moves by more than 1 when the priors of the parameters "
+                  "only one of the two models has are half or twice as wide (either model's, "
+                  "or both) says more about those priors than about the data: it is "
+                  "prior-dominated and not weighed.",
                   ""]
     else:
         lines += ["Only one model was fitted: nothing to compare.", ""]
