@@ -64,7 +64,8 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
             variables[key] = quantity.to_user(value)
     variables["t0_s"] = t0
     variables = {k: np.asarray(v).reshape(shape) for k, v in variables.items()}
-    return variables, bounces.impacts.reshape((*shape, -1)), t0.reshape(shape)
+    impacts = space.with_contact(bounces.impacts, values.get("contact"))
+    return variables, impacts.reshape((*shape, -1)), t0.reshape(shape)
 
 
 def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.random.Generator,

@@ -136,9 +136,10 @@ def gaussian_marginal(data: OnsetData, impacts: NDArray, jitter: NDArray
     log_like, t0_mean, t0_sd
         Each of shape ``(batch,)``; ``log_like`` is −inf where ``impacts`` is NaN.
     """
-    variance = _column(jitter) ** 2 + data.sigmas**2
-    weight = 1.0 / variance
     residual = data.times - data.at_onsets(impacts)
+    # A fixed jitter arrives as a scalar: the variances still have one row per point.
+    variance = np.broadcast_to(_column(jitter) ** 2 + data.sigmas**2, residual.shape)
+    weight = 1.0 / variance
     sum_w = weight.sum(axis=1)
     t0_mean = (weight * residual).sum(axis=1) / sum_w
     chi2 = (weight * (residual - t0_mean[:, None]) ** 2).sum(axis=1)

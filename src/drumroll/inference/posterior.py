@@ -170,7 +170,7 @@ class LogPosterior:
         """The log-likelihood through the full forward model (:class:`Bounces`): slower, the
         reference the lean path is tested against."""
         v = self.space.values(x)
-        impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
+        impacts = self.space.impact_times(v, self.data.n_flights)
         if self._scatter:
             _, covariance, _ = self.onset_covariance(x)
             return scatter_marginal(self.data, impacts, covariance)[0]
@@ -213,14 +213,14 @@ class LogPosterior:
         if self._scatter:
             _, mean, sd = self._scatter_marginal(np.atleast_2d(x))
             return mean + sd * rng.standard_normal(mean.shape)
-        impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
+        impacts = self.space.impact_times(v, self.data.n_flights)
         _, mean, sd = gaussian_marginal(self.data, impacts, v["jitter"])
         return mean + sd * rng.standard_normal(mean.shape)
 
     def pointwise(self, x: NDArray, t0: NDArray) -> NDArray:
         """log p(t_k | θ, T0) per row and observed onset, shape ``(batch, n_onsets)``."""
         v = self.space.values(x)
-        impacts = self.space.bounces_from_values(v, self.data.n_flights).impacts
+        impacts = self.space.impact_times(v, self.data.n_flights)
         return pointwise_log_likelihood(self.data, impacts, v["jitter"], t0, self.noise,
                                         v.get("nu"))
 

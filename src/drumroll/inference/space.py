@@ -27,6 +27,10 @@ DEFAULT_JITTER_PRIOR: Distribution = LogUniform(low=1e-5, high=1e-2)
 #: parameter of the noise of every model when the config gives it a prior.
 SCATTER = "restitution_scatter"
 
+#: The contact time of each impact: the onset marks the start of contact, the next flight
+#: starts at its end, so impact m comes m contact times later than the flights alone put it.
+CONTACT = "contact"
+
 #: Stick dimensions: the internal name under which an uncertain one is sampled → its field.
 STICK_PARAMETERS = {q.name: q.field for q in STICK_DIMENSIONS.values()}
 
@@ -63,8 +67,9 @@ class ParameterSpace:
         forward = forward_model(model)
         priors: dict[str, Distribution] = {name: config.priors[name] for name in forward.parameters}
         priors["jitter"] = config.priors.get("jitter", DEFAULT_JITTER_PRIOR)
-        if SCATTER in config.priors:
-            priors[SCATTER] = config.priors[SCATTER]
+        for name in (CONTACT, SCATTER):  # parts of every model, when the config asks
+            if name in config.priors:
+                priors[name] = config.priors[name]
         if forward.needs_stick and config.stick is not None:
             for name, field in STICK_PARAMETERS.items():
                 priors[name] = getattr(config.stick, field)
@@ -135,6 +140,21 @@ class ParameterSpace:
         """Run the forward model for every row of ``x``."""
         return self.bounces_from_values(self.values(x), n_flights)
 
+    def impact_times(self, v: dict[str, NDArray], n_flights: int) -> NDArray:
+        """Impact times τ_0 … τ_N after the first impact through the full forward model
+        (:meth:`bounces_from_values`), contact times included; NaN rows where invalid."""
+        return self.with_contact(self.bounces_from_values(v, n_flights).impacts,
+                                  v.get(CONTACT))
+
+    @staticmethod
+    def with_contact(impacts: NDArray, contact: NDArray | float | None) -> NDArray:
+        """τ_m + m τ_c: every impact before impact m held the stick on the head for τ_c
+        (physics.md; constant contact time)."""
+        if contact is None:
+            return impacts
+        steps = np.arange(impacts.shape[-1], dtype=float)
+        return impacts + np.reshape(np.asarray(contact, float), (-1, 1)) * steps
+
     def bounces_from_values(self, v: dict[str, NDArray], n_flights: int) -> Bounces:
         """Run the forward model on parameter values from :meth:`values`."""
         stick = None
@@ -172,6 +192,8 @@ class ParameterSpace:
         if impacts.shape[0] != x.shape[0]:  # every physical parameter fixed
             impacts = np.broadcast_to(impacts, (x.shape[0], n_flights + 1))
             valid = np.broadcast_to(valid, (x.shape[0],))
+        if CONTACT in self.priors:
+            impacts = self.with_contact(impacts, self.value(x, CONTACT))
         return impacts, valid
 
     def impacts_and_slopes(self, x: NDArray, n_flights: int
@@ -188,6 +210,8 @@ class ParameterSpace:
         flights, slopes = np.broadcast_to(flights, shape), np.broadcast_to(slopes, shape)
         impacts = np.zeros((x.shape[0], n_flights + 1))
         np.cumsum(flights, axis=1, out=impacts[:, 1:])
+        if CONTACT in self.priors:
+            impacts = self.with_contact(impacts, self.value(x, CONTACT))
         return impacts, slopes, np.broadcast_to(valid, shape[:1])
 
     def _tip_first(self, values: dict[str, NDArray | float]) -> NDArray | bool:
