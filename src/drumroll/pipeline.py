@@ -409,6 +409,13 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         {m: f.idata for m, f in fits.items()}, config.model, evidences, loos,
         inadequate=[m for m, a in adequacies.items() if a.adequate is False],
         priors={m: f.log_posterior.space.priors for m, f in fits.items()})
+    averaged = None
+    if len(fits) > 1:  # one α for a table: the models stacked by their LOO predictions
+        from drumroll.inference.model_average import model_average, stacking_weights
+
+        weights = stacking_weights({m: loos[m].pointwise for m in fits})
+        averaged = model_average({m: f.idata.posterior for m, f in fits.items()}, weights,
+                                 settings.hdi_prob, seed=settings.sampler.seed)
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
@@ -450,7 +457,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         models=models_summary, observed_flights=observed,
         fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
                for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
-        comparison=rows, preferred=preferred, verdict=verdict, diagnostics=model_diagnostics,
+        comparison=rows, preferred=preferred, verdict=verdict, model_average=averaged,
+        diagnostics=model_diagnostics,
         evidence=evidence_entries, loo={m: loos[m].summary() for m in fits},
         onsets=tuple(Onset(float(t), float(s), int(k)) for t, s, k in zip(
             onsets.time_s, onsets.sigma_s, data.bounces, strict=True)),

@@ -13,7 +13,7 @@ from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
 from drumroll.onsets import ONSET_FILE_SUFFIXES
 from drumroll.quantities import QUANTITIES
-from drumroll.reporting.numbers import format_value_error
+from drumroll.reporting.numbers import format_value_error, model_average_text
 
 if TYPE_CHECKING:
     from drumroll.pipeline import Result
@@ -155,4 +155,7 @@ def terminal_table(result: Result) -> str:
     why = "the model does not describe the onsets" if misfit else "the data cannot tell"
     lines.append(f"preferred: {preferred if preferred else f'none ({why})'}")
     lines.append(f"verdict: {summary.verdict}")
+    averaged = model_average_text(summary.model_average)
+    if averaged:
+        lines.append(f"model-averaged: {averaged}")
     return "\n".join(lines)

@@ -12,10 +12,10 @@ import importlib
 import os
 import signal
 import sys
-import threading
 import warnings
 from collections.abc import Callable, Sequence
 
+from drumroll import interruption
 from drumroll._version import __version__
 from drumroll.errors import DrumrollError
 
@@ -67,23 +67,6 @@ def _one_blas_thread() -> None:
         os.environ.setdefault(variable, "1")
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the command is, so that it ends as a Ctrl-C does: workers
-    stopped, staged files removed, one line."""
-
-
-def _raise_terminated(signum, frame) -> None:
-    raise Terminated
-
-
-def _terminate_as_interrupt():
-    """Handle SIGTERM as Ctrl-C is handled (in the main thread only: a signal handler can be
-    set nowhere else); returns the handler it replaced, or None."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    return signal.signal(signal.SIGTERM, _raise_terminated)
-
-
 #: The option that shows an internal error's traceback instead of one line.
 DEBUG_OPTION = "--debug"
 
@@ -104,16 +87,18 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     args = parser.parse_args([a for a in arguments if a != DEBUG_OPTION])
     warnings.showwarning = _show_warning
     _without_numba()
-    previous = _terminate_as_interrupt()
+    previous = interruption.install()
     try:
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
+        interruption.raise_if_interrupted()  # a signal whose exception Python swallowed
+        return status
     except DrumrollError as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt as exc:
-        how = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        how = "terminated" if isinstance(exc, interruption.Terminated) else "interrupted"
         print(f"{parser.prog}: {how}; no partial output was kept", file=sys.stderr)
-        return 128 + signal.SIGTERM if isinstance(exc, Terminated) else 130
+        return 128 + signal.SIGTERM if isinstance(exc, interruption.Terminated) else 130
     except BrokenPipeError:  # e.g. `drumroll predict cfg.toml | head`
         return 0
     except Exception as exc:  # a fault of ours, not of the input: one line, exit 1
@@ -125,8 +110,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
               file=sys.stderr)
         return 1
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        interruption.restore(previous)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -175,6 +175,20 @@ class ComparisonRow(Record):
 
 
 @dataclass(frozen=True)
+class ModelAverage(Record):
+    """α and t_B averaged over the fitted models with stacking weights
+    (:mod:`~drumroll.inference.model_average`): one number for a table when the comparison
+    cannot pick a model, or when the models' α differ by more than their error bars.
+    ``parameters``' intervals are highest-density intervals of the weighted mixture of the
+    models' draws; R-hat and ESS are not defined for a mixture (None)."""
+
+    weights: dict[str, float] = field(default_factory=dict)
+    parameters: dict[str, ParameterSummary] = field(default_factory=dict)
+    nested: ClassVar[dict[str, tuple[type[Record], str]]] = {
+        "parameters": (ParameterSummary, "dict")}
+
+
+@dataclass(frozen=True)
 class FlightSeries(Record):
     """One model's flights T_1 … T_K (s): posterior median and central band (probability
     ``prob``) of the noise-free flight times, entry k − 1 being flight k."""
@@ -321,7 +335,8 @@ class Summary(Record):
         "parameters": (ParameterSummary, "dict"), "models": (ModelSummary, "dict"),
         "observed_flights": (ObservedFlights, "one"), "comparison": (ComparisonRow, "tuple"),
         "diagnostics": (Diagnostics, "dict"), "evidence": (EvidenceSummary, "dict"),
-        "loo": (LooSummary, "dict"), "onsets": (Onset, "tuple")}
+        "loo": (LooSummary, "dict"), "onsets": (Onset, "tuple"),
+        "model_average": (ModelAverage, "one")}
 
     model: str = ""
     n_onsets: int = 0
@@ -336,6 +351,7 @@ class Summary(Record):
     comparison: tuple[ComparisonRow, ...] = ()
     preferred: str | None = None
     verdict: str = ""
+    model_average: ModelAverage | None = None
     diagnostics: dict[str, Diagnostics] = field(default_factory=dict)
     evidence: dict[str, EvidenceSummary] = field(default_factory=dict)
     loo: dict[str, LooSummary] = field(default_factory=dict)

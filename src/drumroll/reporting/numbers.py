@@ -57,3 +57,18 @@ def format_value_error(value: float, err: float, significant: int | None = None,
     step = 10.0 ** (-decimals)
     return f"{round(value / step) * step:.0f} ± {round(err / step) * step:.0f}{suffix}"
 
+
+
+def model_average_text(average) -> str | None:
+    """One line for the stacking-weighted α and t_B (:class:`~drumroll.inference.results.
+    ModelAverage`), e.g. ``α = 0.9002 ± 0.0004, t_B = 0.19908 ± 0.00010 s (stacking weights:
+    pendulum 0.77, small-angle 0.23, powerlaw 0.00)``; None without one."""
+    if average is None or not average.parameters:
+        return None
+    parts = []
+    for name, symbol, unit in (("alpha", "α", ""), ("t_b", "t_B", " s")):
+        p = average.parameters.get(name)
+        if p is not None and p.mean is not None and p.sd is not None:
+            parts.append(f"{symbol} = {format_value_error(p.mean, p.sd)}{unit}")
+    weights = ", ".join(f"{m} {w:.2f}" for m, w in average.weights.items())
+    return f"{', '.join(parts)} (stacking weights: {weights})"

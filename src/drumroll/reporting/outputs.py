@@ -26,6 +26,7 @@ from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
+from drumroll.interruption import raise_if_interrupted
 from drumroll.onsets import ONSET_FILE_SUFFIXES
 from drumroll.reporting.figures import DRAW_SECONDS, FIGURES, FigureInputs, figure_files
 from drumroll.reporting.posterior_file import load_posteriors, save_posteriors
@@ -153,6 +154,9 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
                               else _draw_figure(key, inputs, staging / figures[key]))
         report = DATA_FILES["report"]
         report.write(result, staging / report.file, {k: drawn[k] for k in figures})
+        # The commit point: a Ctrl-C or SIGTERM whose exception was swallowed (raised in a
+        # garbage collector's callback) must not let the outputs through.
+        raise_if_interrupted()
         written = {}
         keys = {d.file: k for k, d in DATA_FILES.items()} | {v: k for k, v in figures.items()}
         for path in sorted(staging.iterdir()):

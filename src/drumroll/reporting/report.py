@@ -32,7 +32,7 @@ from drumroll.onsets.table import single_flights
 from drumroll.physics.models import MODELS
 from drumroll.quantities import DERIVED, QUANTITIES, report_order
 from drumroll.reporting.figures import FIGURES
-from drumroll.reporting.numbers import error_decimals, format_value_error
+from drumroll.reporting.numbers import error_decimals, format_value_error, model_average_text
 from drumroll.reporting.plot_style import model_name
 
 
@@ -193,6 +193,11 @@ def comparison_section(summary: Summary) -> list[str]:
         lines.append("**Preferred model:** none (the verdict below says why).")
     if summary.verdict:
         lines += ["", summary.verdict]
+    averaged = model_average_text(summary.model_average)
+    if averaged:
+        lines += ["", f"**One α for a table**, the models averaged by how well each predicts "
+                  f"the onsets left out (stacking on PSIS-LOO): {averaged}. Each model's own "
+                  "α is in its section; a table of one model's α should say which."]
     lines.append("")
     return lines
 

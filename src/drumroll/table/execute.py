@@ -30,7 +30,7 @@ from drumroll.table.runs import Run, RunsFile, validate_estimation
 from drumroll.workers import process_pool
 
 #: Bumped whenever the cached row's layout changes (old entries are then recomputed).
-CACHE_SCHEMA = 3
+CACHE_SCHEMA = 4
 #: Monte Carlo draws of the computed t_B (the sd's relative precision is ~0.5 %).
 PREDICT_DRAWS = 20_000
 #: Seed of the computed t_B's draws.
@@ -80,6 +80,15 @@ class RunRow(Record):
     def alpha(self) -> Estimate:
         """The main model's α (posterior mean ± sd)."""
         return Estimate.of(self.summary.parameters.get("alpha"))
+
+    @property
+    def alpha_averaged(self) -> Estimate:
+        """α of the fitted models averaged by stacking (the main model's alone when it was
+        the only one fitted)."""
+        average = self.summary.model_average
+        if average is None or "alpha" not in average.parameters:
+            return self.alpha
+        return Estimate.of(average.parameters["alpha"])
 
     @property
     def fitted_t_b(self) -> Estimate:

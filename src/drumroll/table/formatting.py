@@ -25,6 +25,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
                               r"computed $t_B$, exact (\si{s})"),
     "fitted_t_b": ("fitted t_B (s)", r"fitted $t_B$ (\si{s})"),
     "alpha": ("α", r"$\alpha$"),
+    "alpha_averaged": ("α, models averaged", r"$\alpha$, averaged"),
 }
 _SHARED_MARK = "*"
 
@@ -64,6 +65,7 @@ def table_rows(result: TableResult) -> list[dict[str, Any]]:
             "computed_t_b_pendulum": computed.get("pendulum", Estimate()).to_json(),
             "fitted_t_b": row.fitted_t_b.to_json(),
             "alpha": row.alpha.to_json(),
+            "alpha_averaged": row.alpha_averaged.to_json(),
             "model": summary.model,
             "preferred": summary.preferred,
             "verdict": summary.verdict,
@@ -129,7 +131,9 @@ def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
     notes on its onsets (other rolls, missing bounces) and warnings."""
     out = ["Computed t_B: the priors (measured geometry with its ±) propagated through the "
            "small-angle model (as in the paper) and the exact pendulum; fitted t_B and α: "
-           f"posterior mean ± sd of the {rows[0]['model'] if rows else 'main'} model."]
+           f"posterior mean ± sd of the {rows[0]['model'] if rows else 'main'} model; α, "
+           "models averaged: the fitted models' posteriors weighted by stacking on PSIS-LOO "
+           "(the models' α can differ by more than their error bars)."]
     joint = result.joint
     if joint:
         shared = ", ".join(result.runs.share)
