@@ -136,6 +136,9 @@ QUANTITIES: dict[str, Quantity] = {q.key: q for q in (
     Quantity("restitution_scatter", "restitution_scatter", r"$s_\alpha$", "s_α", "", 1.0,
              "parameter", "bounce-to-bounce scatter of the restitution (sd of ln α_k)",
              0.0, _INF, False, True),
+    Quantity("jitter_sd_ms", "jitter_sd", r"$\sigma_\mathrm{sd}$", "sd of the jitter", "ms",
+             1e-3, "derived", "standard deviation of the Student-t onset noise, "
+             "σ √(ν / (ν − 2)) (ν > 2; the jitter σ is its scale)", 0.0, _INF, True, True),
     Quantity("nu", "nu", r"$\nu$", "ν", "", 1.0, "nuisance",
              "Student-t degrees of freedom of the onset noise", 0.0, _INF, True, True),
     Quantity("t_c", "t_c", r"$t_C$", "t_C", "s", 1.0, "derived",
@@ -146,6 +149,10 @@ QUANTITIES: dict[str, Quantity] = {q.key: q for q in (
              "angular speed at the first contact", bounces="omega_c"),
     Quantity("contact_tip_speed_m_s", "tip_speed_c", r"$v_C$", "v_C", "m/s", 1.0, "derived",
              "tip speed at the first contact", bounces="tip_speed_c"),
+    Quantity("effective_height_mm", "effective_height", r"$h_\mathrm{eff}$", "h_eff", "mm",
+             1e-3, "derived", "effective height of eq. 8, h K_O² / ((l_C − d)(L − d))"),
+    Quantity("tip_mass_ratio", "tip_mass_ratio", r"$K_O^2/(L-d)^2$", "K_O²/(L − d)²", "", 1.0,
+             "derived", "the tip's effective mass ratio K_O² / (L − d)²"),
     Quantity("t0_s", "t0", r"$t_0$", "t₀", "s", 1.0, "nuisance",
              "time of the first impact in the recording"),
 )}
@@ -159,6 +166,11 @@ STICK_DIMENSIONS: dict[str, Quantity] = {q.section_key: q for q in QUANTITIES.va
 #: Quantities a forward model derives from the parameters (t_B is one too where it is not a
 #: parameter), by key.
 DERIVED: dict[str, Quantity] = {k: q for k, q in QUANTITIES.items() if q.bounces is not None}
+#: Quantities computed from each posterior draw outside the forward model, by key: eq. 8's
+#: effective height and the tip's mass ratio (:func:`drumroll.physics.geometry.
+#: effective_height`), the Student-t noise's standard deviation.
+DRAW_DERIVED: dict[str, Quantity] = {k: q for k, q in QUANTITIES.items()
+                                      if q.kind == "derived" and q.bounces is None}
 #: Every quantity by its internal (SI) name.
 BY_NAME: dict[str, Quantity] = {q.name: q for q in QUANTITIES.values()}
 

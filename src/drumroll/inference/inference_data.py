@@ -26,7 +26,8 @@ from drumroll._version import __version__
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior, scatter_pointwise_and_noise
 from drumroll.inference.sampling import Chain
-from drumroll.quantities import BY_NAME, DERIVED
+from drumroll.physics.geometry import effective_height
+from drumroll.quantities import BY_NAME, DERIVED, DRAW_DERIVED
 
 if TYPE_CHECKING:  # ArviZ takes a second to import: only building InferenceData needs it
     import arviz as az
@@ -62,6 +63,18 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
         value = getattr(bounces, quantity.bounces)
         if not np.all(np.isnan(value)):
             variables[key] = quantity.to_user(value)
+    if space.forward.needs_stick:  # eq. 8's effective height and the tip's mass ratio
+        h_eff, ratio = effective_height(space.config.stick.shape, values["stick_length"],
+                                        values["stick_tip"], values["stick_radius"],
+                                        values["pivot"], values["height"])
+        for key, value in (("effective_height_mm", h_eff), ("tip_mass_ratio", ratio)):
+            variables[key] = DRAW_DERIVED[key].to_user(np.broadcast_to(value, t0.shape))
+    if log_posterior.noise == "student-t":  # the scale σ is not the noise's sd
+        nu = np.asarray(values["nu"], float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sd = values["jitter"] * np.sqrt(np.where(nu > 2, nu / (nu - 2), np.inf))
+        variables["jitter_sd_ms"] = DRAW_DERIVED["jitter_sd_ms"].to_user(
+            np.broadcast_to(sd, t0.shape))
     variables["t0_s"] = t0
     variables = {k: np.asarray(v).reshape(shape) for k, v in variables.items()}
     impacts = space.with_contact(bounces.impacts, values.get("contact"))

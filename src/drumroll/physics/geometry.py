@@ -120,3 +120,17 @@ class StickGeometry:
     def centre_of_mass(self) -> NDArray:
         """l_C (m) from the butt end (eq. 12 or eq. 16); it does not depend on the pivot."""
         return self.mass_properties(0.0)[1]
+
+
+def effective_height(shape: str, length, tip, radius, pivot, height) -> tuple:
+    """The effective height h_eff = h K_O² / ((l_C − d)(L − d)) (eq. 8) and the tip's
+    effective mass ratio K_O² / (L − d)² of a set-up (SI; arrays or floats).
+
+    A pivoted stick falls like a point mass dropped from h_eff (the small-angle fall, eq. 7);
+    K_O² / (L − d)² is how much heavier the stick is at its tip than its mass would be there
+    alone (what the head feels at an impact).
+    """
+    total_length, centre_of_mass, k_o_squared = mass_properties_squared(
+        shape, length, tip, radius, pivot)
+    arm = total_length - pivot
+    return height * k_o_squared / ((centre_of_mass - pivot) * arm), k_o_squared / arm**2

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -96,8 +97,25 @@ def figure_inputs(result: Any, truths: dict[str, float] | None = None) -> Figure
     """What the figures of ``result`` (a :class:`drumroll.pipeline.Result`) are given."""
     audio = result.source if result.source is not None and result.source.suffix.lower() \
         not in ONSET_FILE_SUFFIXES else None
-    return FigureInputs(idatas=result.idatas, summary=result.summary, truths=truths,
-                        audio=audio, onsets=result.onsets if audio is not None else None)
+    return FigureInputs(idatas=result.idatas, summary=result.summary,
+                        truths=_truths_as_sampled(result, truths), audio=audio,
+                        onsets=result.onsets if audio is not None else None)
+
+
+def _truths_as_sampled(result: Any, truths: dict[str, float] | None) -> dict[str, float] | None:
+    """``truths`` in the quantities the figures draw: a true jitter is the noise's sd, which
+    under Student-t noise with a fixed ν is the sampled scale σ times √(ν / (ν − 2)); with ν
+    sampled there is no one scale to mark, so none is drawn."""
+    fit = result.fits.get(result.summary.model) if truths else None
+    if fit is None or fit.log_posterior.noise != "student-t" or "jitter_ms" not in truths:
+        return truths
+    nu = fit.log_posterior.space.priors["nu"]
+    out = dict(truths)
+    if nu.is_fixed and nu.value > 2:
+        out["jitter_ms"] = truths["jitter_ms"] * math.sqrt((nu.value - 2) / nu.value)
+    else:
+        del out["jitter_ms"]
+    return out
 
 
 def _draw_figure(key: str, inputs: FigureInputs, path: Path) -> Path:

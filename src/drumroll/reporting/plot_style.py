@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from drumroll import fileio
 from drumroll.physics.models import MODELS
-from drumroll.quantities import DERIVED, quantity
+from drumroll.quantities import DERIVED, DRAW_DERIVED, quantity
 
 #: Okabe & Ito (2008) colour-blind-safe palette.
 OKABE_ITO: dict[str, str] = {
@@ -149,7 +149,7 @@ def sampled_parameters(idata) -> list[str]:
             names = [str(n) for n in np.atleast_1d(listed) if str(n) in posterior]
     if not names:
         names = [str(n) for n in posterior.data_vars if str(n) not in DERIVED
-                 and str(n) != "t0_s"]
+                 and str(n) not in DRAW_DERIVED and str(n) != "t0_s"]
     return [n for n in names if posterior[n].ndim == 2 and np.ptp(posterior[n].values) > 0]
 
 

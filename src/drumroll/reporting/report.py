@@ -30,7 +30,7 @@ from drumroll.inference.results import (
 )
 from drumroll.onsets.table import single_flights
 from drumroll.physics.models import MODELS
-from drumroll.quantities import DERIVED, QUANTITIES, report_order
+from drumroll.quantities import DERIVED, DRAW_DERIVED, QUANTITIES, report_order
 from drumroll.reporting.figures import FIGURES
 from drumroll.reporting.numbers import error_decimals, format_value_error, model_average_text
 from drumroll.reporting.plot_style import model_name
@@ -124,7 +124,7 @@ def parameter_table(parameters: dict[str, ParameterSummary], model: str = "",
         stats = parameters[key]
         estimate, interval = format_estimate(stats)
         meaning = describe(key)
-        if key in DERIVED and DERIVED[key].name not in sampled:
+        if (key in DERIVED and DERIVED[key].name not in sampled) or key in DRAW_DERIVED:
             meaning += " (derived)"
         lines.append(f"| {_cell(parameter_heading(key))} | {_cell(meaning)} | {estimate} | "
                      f"{interval} | {_rhat_text(stats.r_hat, targets.max_r_hat)} | "
