@@ -20,6 +20,7 @@ from drumroll.inference.loo import conditional_pointwise
 from drumroll.physics import StickGeometry, bounce_sequence
 from drumroll.pipeline import estimate, evidence_summary
 from drumroll.reporting.outputs import load_posteriors
+from paths import DATA
 
 STICK = StickGeometry("cylinder-cone", 0.348, 0.060, 0.0075)
 
@@ -192,3 +193,17 @@ def test_no_preference_claimed_for_small_contact_angle_and_large_jitter(tmp_path
     result = estimate(source, config)
     assert result.preferred is None
     assert "cannot tell" in result.summary.verdict
+
+
+def test_what_a_roll_cannot_tell_is_said_and_the_noise_sd_is_reported():
+    """A fixed release makes t_c conditional on it (a note says so); the stick models report
+    eq. 8's effective height; Student-t noise reports its sd, σ √(ν / (ν − 2))."""
+    result = estimate(DATA / "table2_h80.flac", DATA / "table2_h80.toml")
+    notes = " ".join(result.summary.notes)
+    assert "t_c assumes the release this config fixes" in notes
+    p = result.summary.parameters
+    assert 76.5 < p["effective_height_mm"].mean < 78.0
+    nu = 4.0  # table2_h80.toml's fixed ν
+    jitter = result.fits["pendulum"].idata.posterior
+    np.testing.assert_allclose(jitter["jitter_sd_ms"].values,
+                               jitter["jitter_ms"].values * np.sqrt(nu / (nu - 2)), rtol=1e-12)

@@ -158,3 +158,14 @@ def test_stick_geometry_dispatches_to_the_shapes():
     assert rod.centre_of_mass() == pytest.approx(0.204)
     with pytest.raises(ValueError, match="unknown stick shape"):
         StickGeometry("banana", length=0.4).mass_properties(0.1)  # type: ignore[arg-type]
+
+
+def test_effective_height_of_eq_8_from_the_papers_test_vector():
+    """h_eff = h K_O² / ((l_C − d)(L − d)) with physics.md's K_O = 119.3245 mm and
+    l_C = 184.2717 mm for the paper's stick at d = 131 mm (computed independently)."""
+    from drumroll.physics.geometry import effective_height
+
+    h_eff, ratio = effective_height("cylinder-cone", 0.348, 0.060, 0.0075, 0.131, 0.080)
+    k_o, l_c, arm = 0.1193245, 0.1842717, 0.408 - 0.131
+    assert h_eff == pytest.approx(0.080 * k_o**2 / ((l_c - 0.131) * arm), rel=1e-6)
+    assert ratio == pytest.approx(k_o**2 / arm**2, rel=1e-6)
