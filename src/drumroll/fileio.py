@@ -3,17 +3,68 @@
 Every output is written to a temporary file in the destination folder and renamed into place,
 so an interrupted run leaves either the old file or the new one, never half of one. Existing
 files are refused unless the caller allows overwriting.
+
+A disk that fills up while an output is written (or a file size limit, ``ulimit -f``) is the
+user's to fix, not a fault of ours: :func:`no_space` tells such an error and
+:func:`no_space_error` words it as one line naming the output; the partial file is removed.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 from drumroll.errors import DrumrollError
+
+#: ``errno`` of a write that found no room: the device is full, the user's disk quota is
+#: used up, or the file would exceed the process's (``ulimit -f``) or the file system's size
+#: limit. What each means and what to do, in words.
+NO_SPACE = {
+    errno.ENOSPC: ("no space left on the device", "free some space, or write somewhere else"),
+    errno.EDQUOT: ("the disk quota is used up", "free some space, or write somewhere else"),
+    errno.EFBIG: ("the file would exceed the file size limit (ulimit -f, or the file "
+                  "system's)", "raise the limit, or write somewhere else"),
+}
+
+
+def no_space(exc: BaseException) -> bool:
+    """Whether ``exc`` is a write that found no room (see :data:`NO_SPACE`)."""
+    return isinstance(exc, OSError) and exc.errno in NO_SPACE
+
+
+class NoSpace(DrumrollError):
+    """An output that could not be written for want of room (see :data:`NO_SPACE`).
+
+    Parameters
+    ----------
+    path
+        The output.
+    code
+        The error's ``errno``, a key of :data:`NO_SPACE`.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], code: int) -> None:
+        reason, advice = NO_SPACE[code]
+        super().__init__(f"{path}: cannot write it: {reason}; nothing was written ({advice})")
+        self.path, self.errno, self.reason = Path(path), code, reason
+
+    def __reduce__(self):  # raised in worker processes: rebuilt from its own arguments
+        return type(self), (self.path, self.errno)
+
+    def moved(self, staging: Path, final: Path) -> NoSpace:
+        """The same error about ``final / name`` when it concerned ``staging / name``."""
+        if self.path.parent != staging:
+            return self
+        return NoSpace(final / self.path.name, self.errno)
+
+
+def no_space_error(path: str | os.PathLike[str], exc: OSError) -> NoSpace:
+    """The one-line error for ``exc`` (:func:`no_space` is true of it) writing ``path``."""
+    return NoSpace(path, exc.errno)
 
 
 def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
@@ -73,15 +124,9 @@ def check_figure_suffix(path: str | os.PathLike[str]) -> Path:
     return path
 
 
-@contextlib.contextmanager
-def atomic_path(path: str | os.PathLike[str], *, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
-
-    The temporary file keeps ``path``'s suffix so that writers which choose a format by suffix
-    (soundfile, matplotlib) still do the right thing. On any exception, Ctrl-C included, the
-    temporary file is removed and ``path`` is untouched.
-    """
-    path = check_writable(path, overwrite=overwrite)
+def _staging_file(path: Path) -> Path:
+    """A new empty file beside ``path``, with ``path``'s suffix and the mode a plain
+    ``open()`` would give it."""
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}",
                                     dir=path.parent)
     os.close(fd)
@@ -90,14 +135,60 @@ def atomic_path(path: str | os.PathLike[str], *, overwrite: bool = False) -> Ite
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)
+    return tmp
+
+
+@contextlib.contextmanager
+def atomic_paths(paths: list[str | os.PathLike[str]], *, overwrite: bool = False
+                 ) -> Iterator[list[Path]]:
+    """Yield a temporary path beside each of ``paths``; if the block succeeds, rename each
+    onto its path, the outputs of one command together.
+
+    The temporary files keep their path's suffix so that writers which choose a format by
+    suffix (soundfile, matplotlib) still do the right thing. On any exception, Ctrl-C
+    included, every temporary file is removed and no path is touched: a later output that
+    fails (a full disk) leaves no earlier one behind. A full disk is one line naming the
+    output (:func:`no_space_error`).
+    """
+    finals = [check_writable(path, overwrite=overwrite) for path in paths]
+    temporaries: list[Path] = []
+
+    def concerned(exc: OSError) -> Path:
+        # The output the error is about: the one whose file it names, else the one being
+        # staged (or the only one).
+        named = [final for final, tmp in zip(finals, temporaries, strict=False)
+                 if exc.filename in (str(tmp), str(final))]
+        return named[0] if named else finals[min(len(temporaries), len(finals) - 1)]
+
     try:
-        yield tmp
-        if path.exists() and not overwrite:  # appeared while we were working
-            raise DrumrollError(f"{path}: already exists (use --force to overwrite it)")
-        os.replace(tmp, path)
+        for final in finals:
+            temporaries.append(_staging_file(final))
+        yield temporaries
+        for final in finals:
+            if final.exists() and not overwrite:  # appeared while we were working
+                raise DrumrollError(f"{final}: already exists (use --force to overwrite it)")
+        for final, tmp in zip(finals, temporaries, strict=True):
+            os.replace(tmp, final)
+    except OSError as exc:
+        if not no_space(exc):
+            raise
+        raise no_space_error(concerned(exc), exc) from None
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        for tmp in temporaries:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str], *, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds
+    (see :func:`atomic_paths`).
+
+    On any exception, Ctrl-C included, the temporary file is removed and ``path`` is
+    untouched.
+    """
+    with atomic_paths([path], overwrite=overwrite) as (tmp,):
+        yield tmp
 
 
 def write_text(path: str | os.PathLike[str], text: str, *, overwrite: bool = False) -> Path:
@@ -113,3 +204,33 @@ def write_with(path: str | os.PathLike[str], writer: Callable[[Path], object], *
     with atomic_path(path, overwrite=overwrite) as tmp:
         writer(tmp)
     return Path(path)
+
+
+def write_together(writers: Mapping[str | os.PathLike[str], Callable[[Path], object]], *,
+                   overwrite: bool = False) -> list[Path]:
+    """Call each writer with a temporary path beside its output, then move them all into
+    place: every output or none (see :func:`atomic_paths`).
+
+    Parameters
+    ----------
+    writers
+        Output path → ``writer(tmp_path)``, called in order.
+    overwrite
+        Allow replacing existing files.
+
+    Returns
+    -------
+    list of Path
+        The outputs written.
+    """
+    with atomic_paths(list(writers), overwrite=overwrite) as temporaries:
+        for (path, writer), tmp in zip(writers.items(), temporaries, strict=True):
+            try:
+                writer(tmp)
+            except NoSpace as exc:  # a writer that stages its own file: name the output
+                raise NoSpace(path, exc.errno) from None
+            except OSError as exc:
+                if not no_space(exc):
+                    raise
+                raise no_space_error(path, exc) from None
+    return [Path(path) for path in writers]

@@ -12,10 +12,11 @@ import importlib
 import os
 import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Sequence
 
-from drumroll import interruption
+from drumroll import fileio, interruption
 from drumroll._version import __version__
 from drumroll.errors import DrumrollError
 
@@ -67,6 +68,17 @@ def _one_blas_thread() -> None:
         os.environ.setdefault(variable, "1")
 
 
+def _file_size_limit_as_error() -> object | None:
+    """Let a file that would exceed the size limit (``ulimit -f``) fail as an error (EFBIG:
+    one line, nothing half-written) rather than kill the process (SIGXFSZ's default, with a
+    core dump); the figure workers inherit it. In the main thread only (a signal handler can
+    be set nowhere else); returns the handler replaced, or None."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal,
+                                                                                "SIGXFSZ"):
+        return None
+    return signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+
 #: The option that shows an internal error's traceback instead of one line.
 DEBUG_OPTION = "--debug"
 
@@ -88,6 +100,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     warnings.showwarning = _show_warning
     _without_numba()
     previous = interruption.install()
+    size_limit = _file_size_limit_as_error()
     try:
         status = int(args.func(args) or 0)
         interruption.raise_if_interrupted()  # a signal whose exception Python swallowed
@@ -101,16 +114,34 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         return 128 + signal.SIGTERM if isinstance(exc, interruption.Terminated) else 130
     except BrokenPipeError:  # e.g. `drumroll predict cfg.toml | head`
         return 0
+    except OSError as exc:
+        if debug:
+            raise
+        if not fileio.no_space(exc):
+            return _internal_error(parser.prog, exc)
+        # A full disk met where no output is named (a library's own file): the user's.
+        reason, advice = fileio.NO_SPACE[exc.errno]
+        error = (fileio.no_space_error(exc.filename, exc) if exc.filename else
+                 DrumrollError(f"cannot write: {reason} ({advice})"))
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return error.exit_code
     except Exception as exc:  # a fault of ours, not of the input: one line, exit 1
         if debug:
             raise
-        what = " ".join(f"{type(exc).__name__}: {exc}".split())
-        print(f"{parser.prog}: internal error (a bug in drumroll; please report it with the "
-              f"command and its input): {what[:300]}; {DEBUG_OPTION} shows the traceback",
-              file=sys.stderr)
-        return 1
+        return _internal_error(parser.prog, exc)
     finally:
         interruption.restore(previous)
+        if size_limit is not None:
+            signal.signal(signal.SIGXFSZ, size_limit)
+
+
+def _internal_error(prog: str, exc: Exception) -> int:
+    """Report ``exc``, a fault of ours, in one line; the exit status 1."""
+    what = " ".join(f"{type(exc).__name__}: {exc}".split())
+    print(f"{prog}: internal error (a bug in drumroll; please report it with the command "
+          f"and its input): {what[:300]}; {DEBUG_OPTION} shows the traceback",
+          file=sys.stderr)
+    return 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:

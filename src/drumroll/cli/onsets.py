@@ -58,16 +58,21 @@ def run(args: argparse.Namespace) -> int:
     table = detect(audio, threshold=args.threshold, all_candidates=args.all_candidates,
                    **options)
     csv = table.to_csv(all_candidates=args.all_candidates)
-    if args.output:
-        fileio.write_text(args.output, csv, overwrite=args.force)
-    else:
+    if not args.output:
         sys.stdout.write(csv)
+    # The files are written together: all of them or, if one fails (a full disk), none.
+    writers = {}
+    if args.output:
+        writers[args.output] = lambda tmp: tmp.write_text(csv, encoding="utf-8")
     if args.labels:
-        fileio.write_text(args.labels, table.to_labels(), overwrite=args.force)
+        labels = table.to_labels()
+        writers[args.labels] = lambda tmp: tmp.write_text(labels, encoding="utf-8")
     if args.plot:
-        from drumroll.reporting.onset_plot import write_onset_plot
+        from drumroll.reporting.onset_plot import draw_onset_figure
 
-        write_onset_plot(args.plot, audio, table, overwrite=args.force)
+        figure = draw_onset_figure(audio, table)
+        writers[args.plot] = lambda tmp: figure.savefig(tmp, dpi=110)
+    fileio.write_together(writers, overwrite=args.force)
     if args.output:
         print(f"drumroll: {_describe(table)} written to {args.output}", file=sys.stderr)
     return 0

@@ -15,6 +15,7 @@ the config file's folder.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import warnings
 from pathlib import Path
@@ -25,7 +26,7 @@ import soundfile as sf
 
 from drumroll.cli.arguments import non_negative_int
 from drumroll.errors import DrumrollError, DrumrollWarning
-from drumroll.fileio import check_writable, write_text, write_with
+from drumroll.fileio import check_writable, write_together
 
 if TYPE_CHECKING:
     from drumroll.simulation.settings import SimulateSettings
@@ -82,10 +83,15 @@ def run(args: argparse.Namespace) -> int:
              "config": str(args.config),
              "recording": {"file": output.name, "container": container, "subtype": subtype},
              **rest}
-    write_with(output, lambda tmp: sf.write(tmp, simulated.samples, simulated.sample_rate,
-                                            subtype=subtype, format=container),
-               overwrite=args.force)
-    write_text(truth_path, json.dumps(truth, indent=1) + "\n", overwrite=args.force)
+    # Encoded in memory, then written by Python: libsndfile reports a full disk only as
+    # "System error". The recording and its truth are written together, both or neither.
+    recording = io.BytesIO()
+    sf.write(recording, simulated.samples, simulated.sample_rate, subtype=subtype,
+             format=container)
+    write_together({output: lambda tmp: tmp.write_bytes(recording.getbuffer()),
+                    truth_path: lambda tmp: tmp.write_text(json.dumps(truth, indent=1) + "\n",
+                                                           encoding="utf-8")},
+                   overwrite=args.force)
     audible = int(np.sum(rendering.local_snr_db > 0))
     print(f"{output}: {len(rendering.impact_times_s)} impacts ({audible} with local SNR > 0 dB), "
           f"{rendering.duration_s:.2f} s, {settings.sample_rate} Hz, {settings.channels} ch, "

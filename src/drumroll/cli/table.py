@@ -12,7 +12,7 @@ from pathlib import Path
 from drumroll.cli.arguments import positive_int
 from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
-from drumroll.fileio import check_writable, write_text
+from drumroll.fileio import check_writable, write_together
 
 
 class _TableFormats:
@@ -109,15 +109,21 @@ def run(args: argparse.Namespace) -> int:
             result.joint = joint_table(runs, result, cache_dir=args.cache_dir,
                                        use_cache=not args.no_cache)
     text = format_table(result, fmt)
-    if args.output is not None:
-        write_text(args.output, text, overwrite=args.force)
-        progress.say(f"table written to {args.output}")
-    else:
+    if args.output is None:
         sys.stdout.write(text)
+    # The table and the figure are written together: both or, if one fails (a full disk),
+    # neither.
+    writers = {}
+    if args.output is not None:
+        writers[args.output] = lambda tmp: tmp.write_text(text, encoding="utf-8")
     if args.plot is not None:
         from drumroll.table.plot import plot_table
 
-        plot_table(result, args.plot, overwrite=args.force)
+        writers[args.plot] = lambda tmp: plot_table(result, tmp, overwrite=True)
+    write_together(writers, overwrite=args.force)
+    if args.output is not None:
+        progress.say(f"table written to {args.output}")
+    if args.plot is not None:
         progress.say(f"figure written to {args.plot}")
     return 0
 

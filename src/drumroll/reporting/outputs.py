@@ -4,8 +4,9 @@ An estimate's outputs are the data files of :data:`DATA_FILES` (``summary.json``
 ``posterior.nc``, ``report.md``) and the figures of
 :data:`~drumroll.reporting.figures.FIGURES`, each registered once with its file name and
 writer. Everything is first written into a hidden staging folder inside the output folder and
-then renamed into place file by file, so an interrupted run (Ctrl-C included) leaves no
-half-written file, and existing files are replaced only with ``overwrite``.
+then renamed into place file by file, so an interrupted run (Ctrl-C included) or a disk that
+fills up leaves no half-written file, and existing files are replaced only with
+``overwrite``.
 
 ``posterior.nc`` is written and read by :mod:`drumroll.reporting.posterior_file`
 (:func:`load_posteriors` is re-exported here).
@@ -154,47 +155,82 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
     names = [*(d.file for d in DATA_FILES.values()), *figures.values()]
     out_dir = check_outputs(out_dir, names, overwrite=overwrite)
     created = not out_dir.exists()
-    out_dir.mkdir(exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
+    staging: Path | None = None
     finished = False
     try:
-        order = sorted(figures, key=lambda key: -DRAW_SECONDS.get(key, 1.0))  # slowest first
-        workers = max(1, min(workers or os.cpu_count() or 1, len(order)))
-        drawn: dict[str, Path] = {}
-        with contextlib.ExitStack() as stack:
-            pool = stack.enter_context(process_pool(workers)) if workers > 1 else None
-            futures = {key: pool.submit(_draw_figure, key, inputs, staging / figures[key])
-                       for key in order} if pool is not None else {}
-            for data in list(DATA_FILES.values())[:-1]:
-                data.write(result, staging / data.file, {})
-            for key in order:
-                drawn[key] = (futures[key].result() if pool is not None
-                              else _draw_figure(key, inputs, staging / figures[key]))
-        report = DATA_FILES["report"]
-        report.write(result, staging / report.file, {k: drawn[k] for k in figures})
-        # The commit point: a Ctrl-C or SIGTERM whose exception was swallowed (raised in a
-        # garbage collector's callback) must not let the outputs through.
-        raise_if_interrupted()
-        written = {}
-        keys = {d.file: k for k, d in DATA_FILES.items()} | {v: k for k, v in figures.items()}
-        for path in sorted(staging.iterdir()):
-            final = out_dir / path.name
-            if final.exists() and not overwrite:
-                raise DrumrollError(f"{final}: appeared while we were working; not replaced")
-            os.replace(path, final)
-            written[keys.get(path.name, path.stem)] = final
-        if overwrite:
-            # The folder is this run's now: a figure of the run it replaces that this one
-            # does not draw (onsets.png of a recording, when these onsets came from a file;
-            # comparison.png of a run that compared models) would sit beside results it does
-            # not belong to. Only our own names are touched.
-            for name in set(output_files()) - {p.name for p in written.values()}:
-                with contextlib.suppress(FileNotFoundError):
-                    (out_dir / name).unlink()
+        try:
+            out_dir.mkdir(exist_ok=True)
+            staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
+        except OSError as exc:
+            if fileio.no_space(exc):
+                raise fileio.no_space_error(out_dir, exc) from None
+            raise
+        written = _write_staged(result, inputs, figures, staging, out_dir, overwrite=overwrite,
+                                workers=workers)
         finished = True
         return written
+    except fileio.NoSpace as exc:  # named by its final path, not the staging folder's
+        if staging is None:
+            raise
+        raise exc.moved(staging, out_dir) from None
     finally:
         with contextlib.suppress(OSError):
-            shutil.rmtree(staging)
+            if staging is not None:
+                shutil.rmtree(staging)
             if created and not finished:
                 out_dir.rmdir()  # only if still empty: a folder we made and filled with nothing
+
+
+def _write_data(data: DataFile, result: Any, path: Path, figures: dict[str, Path]) -> None:
+    """Write ``data`` to ``path``; for want of room, the error names ``path``."""
+    try:
+        data.write(result, path, figures)
+    except OSError as exc:
+        if not fileio.no_space(exc):
+            raise
+        raise fileio.no_space_error(path, exc) from None
+
+
+def _write_staged(result: Any, inputs: FigureInputs, figures: dict[str, str], staging: Path,
+                  out_dir: Path, *, overwrite: bool, workers: int | None) -> dict[str, Path]:
+    """Write every output into ``staging``, then move each into ``out_dir``.
+
+    Raises
+    ------
+    drumroll.fileio.NoSpace
+        An output found no room on the disk (named by its path in ``staging``).
+    """
+    order = sorted(figures, key=lambda key: -DRAW_SECONDS.get(key, 1.0))  # slowest first
+    workers = max(1, min(workers or os.cpu_count() or 1, len(order)))
+    drawn: dict[str, Path] = {}
+    with contextlib.ExitStack() as stack:
+        pool = stack.enter_context(process_pool(workers)) if workers > 1 else None
+        futures = {key: pool.submit(_draw_figure, key, inputs, staging / figures[key])
+                   for key in order} if pool is not None else {}
+        for data in list(DATA_FILES.values())[:-1]:
+            _write_data(data, result, staging / data.file, {})
+        for key in order:
+            drawn[key] = (futures[key].result() if pool is not None
+                          else _draw_figure(key, inputs, staging / figures[key]))
+    report = DATA_FILES["report"]
+    _write_data(report, result, staging / report.file, {k: drawn[k] for k in figures})
+    written = {}
+    # The commit point: a Ctrl-C or SIGTERM whose exception was swallowed (raised in a
+    # garbage collector's callback) must not let the outputs through.
+    raise_if_interrupted()
+    keys = {d.file: k for k, d in DATA_FILES.items()} | {v: k for k, v in figures.items()}
+    for path in sorted(staging.iterdir()):
+        final = out_dir / path.name
+        if final.exists() and not overwrite:
+            raise DrumrollError(f"{final}: appeared while we were working; not replaced")
+        os.replace(path, final)
+        written[keys.get(path.name, path.stem)] = final
+    if overwrite:
+        # The folder is this run's now: a figure of the run it replaces that this one
+        # does not draw (onsets.png of a recording, when these onsets came from a file;
+        # comparison.png of a run that compared models) would sit beside results it does
+        # not belong to. Only our own names are touched.
+        for name in set(output_files()) - {p.name for p in written.values()}:
+            with contextlib.suppress(FileNotFoundError):
+                (out_dir / name).unlink()
+    return written

@@ -6,11 +6,15 @@ compared model in groups suffixed with its name, e.g. ``posterior_small_angle``;
 
 The file is written in one pass through h5netcdf (the library xarray itself writes netCDF-4
 with): ArviZ's ``to_netcdf`` reopens the file for each of its ~20 groups, and each reopening
-walks every group written before, three times the work of writing the numbers.
+walks every group written before, three times the work of writing the numbers. It is built
+in memory and written to disk by Python in one piece: HDF5 writing into the file itself
+fails badly on a full disk (errors from its destructors, then a segmentation fault), a
+plain write fails as an ``OSError`` the caller can report.
 """
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -63,10 +67,17 @@ def write_groups(path: str | os.PathLike[str], groups: dict[str, Any],
         Group name → :class:`xarray.Dataset`.
     attrs
         The file's own attributes.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written (a full disk among others: see
+        :func:`drumroll.fileio.no_space`).
     """
     import h5netcdf
 
-    with h5netcdf.File(path, "w") as handle:
+    image = io.BytesIO()
+    with h5netcdf.File(image, "w") as handle:
         handle.attrs.update({key: _attribute(value) for key, value in attrs.items()})
         for name, dataset in groups.items():
             group = handle.create_group(name)
@@ -80,6 +91,8 @@ def write_groups(path: str | os.PathLike[str], groups: dict[str, Any],
                     written.attrs[attr] = _attribute(value)
             for attr, value in dataset.attrs.items():
                 group.attrs[attr] = _attribute(value)
+    with open(path, "wb") as file:
+        file.write(image.getbuffer())
 
 
 def save_posteriors(idatas: dict[str, az.InferenceData], main: str,

@@ -16,6 +16,7 @@ import hashlib
 import json
 import os
 import time
+import warnings
 from collections.abc import Callable
 from concurrent.futures import Executor, Future, as_completed
 from dataclasses import dataclass, field
@@ -24,7 +25,7 @@ from typing import Any, ClassVar
 
 from drumroll import fileio
 from drumroll._version import __version__
-from drumroll.errors import DrumrollError
+from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.inference.results import ParameterSummary, Record, Summary
 from drumroll.table.runs import Run, RunsFile, validate_estimation
 from drumroll.workers import process_pool
@@ -207,11 +208,26 @@ def read_cached(path: Path) -> RunRow | None:
 
 
 def write_cached(folder: Path, key: str, entry: RunRow | dict[str, Any]) -> None:
-    """Write a cache entry (a row, or a joint fit's JSON) atomically."""
+    """Write a cache entry (a row, or a joint fit's JSON) atomically.
+
+    A disk without room for it is a warning (the same line for every entry, shown once):
+    the table is complete without its cache, only the next run computes it again.
+    """
     data = entry.to_json() if isinstance(entry, Record) else entry
-    folder.mkdir(parents=True, exist_ok=True)
-    fileio.write_text(folder / f"{key}.json", json.dumps(data, indent=1, ensure_ascii=False),
-                      overwrite=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fileio.write_text(folder / f"{key}.json",
+                          json.dumps(data, indent=1, ensure_ascii=False), overwrite=True)
+    except fileio.NoSpace as exc:
+        reason = exc.reason
+    except OSError as exc:  # the folder itself
+        if not fileio.no_space(exc):
+            raise
+        reason = fileio.NO_SPACE[exc.errno][0]
+    else:
+        return
+    warnings.warn(f"{folder}: the cache is not written ({reason}); the next run computes "
+                  "these runs again", DrumrollWarning, stacklevel=2)
 
 
 def default_workers() -> int:
