@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 from drumroll.errors import DrumrollError
+from drumroll.interruption import raise_if_interrupted
 
 #: ``errno`` of a write that found no room: the device is full, the user's disk quota is
 #: used up, or the file would exceed the process's (``ulimit -f``) or the file system's size
@@ -167,6 +168,9 @@ def atomic_paths(paths: list[str | os.PathLike[str]], *, overwrite: bool = False
         for final in finals:
             if final.exists() and not overwrite:  # appeared while we were working
                 raise DrumrollError(f"{final}: already exists (use --force to overwrite it)")
+        # A Ctrl-C or SIGTERM whose exception was swallowed (raised in a garbage
+        # collector's callback) must not let the outputs through.
+        raise_if_interrupted()
         for final, tmp in zip(finals, temporaries, strict=True):
             os.replace(tmp, final)
     except OSError as exc:

@@ -47,8 +47,11 @@ def process_pool(max_workers: int) -> Iterator[ProcessPoolExecutor]:
         except BaseException:
             # Cancel what has not started and end what has: the run is abandoned.
             pool.shutdown(wait=False, cancel_futures=True)
-            for process in list((getattr(pool, "_processes", None) or {}).values()):
+            processes = list((getattr(pool, "_processes", None) or {}).values())
+            for process in processes:
                 process.terminate()
+            for process in processes:  # gone before the caller removes what they write
+                process.join(timeout=5)
             raise
         pool.shutdown(wait=True)
     finally:

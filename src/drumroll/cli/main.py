@@ -79,6 +79,26 @@ def _file_size_limit_as_error() -> object | None:
     return signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
+def _unraisable_hook(debug: bool):
+    """A :data:`sys.unraisablehook` for a command: an exception Python cannot raise (one in a
+    weak reference's callback or a destructor) printed as one line, not a traceback; a stop
+    (Ctrl-C, SIGTERM) there not at all, as it is recorded and acted on
+    (:mod:`drumroll.interruption`). ``--debug`` keeps Python's report."""
+    default = sys.__unraisablehook__
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            return
+        if debug:
+            default(unraisable)
+            return
+        what = " ".join(f"{unraisable.exc_type.__name__}: {unraisable.exc_value}".split())
+        print(f"drumroll: warning: an error while cleaning up was ignored ({what[:200]})",
+              file=sys.stderr)
+
+    return hook
+
+
 #: The option that shows an internal error's traceback instead of one line.
 DEBUG_OPTION = "--debug"
 
@@ -101,6 +121,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     _without_numba()
     previous = interruption.install()
     size_limit = _file_size_limit_as_error()
+    unraisable_hook, sys.unraisablehook = sys.unraisablehook, _unraisable_hook(debug)
     try:
         status = int(args.func(args) or 0)
         interruption.raise_if_interrupted()  # a signal whose exception Python swallowed
@@ -130,6 +151,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
             raise
         return _internal_error(parser.prog, exc)
     finally:
+        sys.unraisablehook = unraisable_hook
         interruption.restore(previous)
         if size_limit is not None:
             signal.signal(signal.SIGXFSZ, size_limit)
