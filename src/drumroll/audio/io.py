@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import soundfile as sf
 
+from drumroll.audio.chatter import quiet
 from drumroll.audio.info import AudioInfo
 from drumroll.errors import AudioError, DrumrollWarning
 
@@ -203,7 +204,8 @@ def _open(path: Path, stream: int) -> tuple[sf.SoundFile | RawReader, AudioInfo]
     decoding) and what it holds."""
     _check_file(path)
     try:
-        f = sf.SoundFile(path)
+        with quiet(path):  # libmpg123's chatter on a damaged MP3
+            f = sf.SoundFile(path)
     except (sf.LibsndfileError, RuntimeError, TypeError) as exc:
         said = " ".join(str(exc).split())  # libsndfile messages may span lines
         decoded = _decoded(path, stream, said)
@@ -214,7 +216,33 @@ def _open(path: Path, stream: int) -> tuple[sf.SoundFile | RawReader, AudioInfo]
         f.close()
         raise AudioError(f"{path}: no audio stream {stream}: it holds 1 audio stream, numbered "
                          f"from 0 (container {str(f.format).lower()})")
-    return f, _soundfile_info(f, path)
+    info = _soundfile_info(f, path)
+    return (_QuietReader(f, path) if f.format == "MP3" else f), info
+
+
+class _QuietReader:
+    """A :class:`soundfile.SoundFile` of an MP3 whose seeks and reads run inside
+    :func:`~drumroll.audio.chatter.quiet` (libmpg123 reports damaged frames as it reads)."""
+
+    def __init__(self, file: sf.SoundFile, path: Path) -> None:
+        self._file, self._path = file, path
+
+    def __getattr__(self, name: str):
+        return getattr(self._file, name)
+
+    def __enter__(self) -> _QuietReader:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self._file.close()
+
+    def seek(self, frames: int, *args, **kwargs) -> int:
+        with quiet(self._path):
+            return self._file.seek(frames, *args, **kwargs)
+
+    def read(self, *args, **kwargs) -> np.ndarray:
+        with quiet(self._path):
+            return self._file.read(*args, **kwargs)
 
 
 def probe(path: str | os.PathLike[str], *, stream: int | None = None) -> AudioInfo:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import signal
 import sys
 import threading
@@ -38,9 +39,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    # Users see one plain line per warning, not the source line that raised it.
-    print(f"drumroll: warning: {message}", file=sys.stderr)
+#: numpy's floating-point warnings (scipy's too, in numpy's words): an overflow, an invalid
+#: value or a division by zero met somewhere in an array. They name no quantity and no input,
+#: and what the commands print is checked and said in their own words (a config error, a
+#: prediction that overflows), so they are not shown (``--debug`` shows them).
+_FLOATING_POINT = re.compile(r"(overflow|underflow|invalid value|divide by zero) encountered")
+
+
+def _warning_printer(debug: bool):
+    """The command's :func:`warnings.showwarning`: each warning one plain line, not the
+    source line that raised it, and a message shown once (a warning of every run, every
+    block or every figure is one line); numpy's floating-point warnings only with
+    ``--debug``, which also says where a warning came from."""
+    shown: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        text = " ".join(str(message).split())
+        if debug:
+            text += f" ({category.__name__}, {filename}:{lineno})"
+        elif issubclass(category, RuntimeWarning) and _FLOATING_POINT.search(text):
+            return
+        if text not in shown:
+            shown.add(text)
+            print(f"drumroll: warning: {text}", file=sys.stderr)
+
+    return show
 
 
 def _without_numba() -> None:
@@ -117,10 +140,10 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     arguments = list(sys.argv[1:] if argv is None else argv)
     debug = DEBUG_OPTION in arguments  # understood after a subcommand too
     args = parser.parse_args([a for a in arguments if a != DEBUG_OPTION])
-    warnings.showwarning = _show_warning
     _without_numba()
     previous = interruption.install()
     size_limit = _file_size_limit_as_error()
+    show_warning, warnings.showwarning = warnings.showwarning, _warning_printer(debug)
     unraisable_hook, sys.unraisablehook = sys.unraisablehook, _unraisable_hook(debug)
     try:
         status = int(args.func(args) or 0)
@@ -151,7 +174,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
             raise
         return _internal_error(parser.prog, exc)
     finally:
-        sys.unraisablehook = unraisable_hook
+        warnings.showwarning, sys.unraisablehook = show_warning, unraisable_hook
         interruption.restore(previous)
         if size_limit is not None:
             signal.signal(signal.SIGXFSZ, size_limit)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
@@ -67,12 +68,15 @@ def run(args: argparse.Namespace) -> int:
     if args.labels:
         labels = table.to_labels()
         writers[args.labels] = lambda tmp: tmp.write_text(labels, encoding="utf-8")
-    if args.plot:
-        from drumroll.reporting.onset_plot import draw_onset_figure
+    with contextlib.ExitStack() as drawing:
+        if args.plot:
+            from drumroll.reporting.onset_plot import draw_onset_figure
+            from drumroll.reporting.plot_style import missing_glyphs_said_once
 
-        figure = draw_onset_figure(audio, table)
-        writers[args.plot] = lambda tmp: figure.savefig(tmp, dpi=110)
-    fileio.write_together(writers, overwrite=args.force)
+            drawing.enter_context(missing_glyphs_said_once(Path(args.plot).name))
+            figure = draw_onset_figure(audio, table)
+            writers[args.plot] = lambda tmp: figure.savefig(tmp, dpi=110)
+        fileio.write_together(writers, overwrite=args.force)
     if args.output:
         print(f"drumroll: {_describe(table)} written to {args.output}", file=sys.stderr)
     return 0

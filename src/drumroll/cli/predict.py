@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import warnings
 from typing import TYPE_CHECKING
 
@@ -46,11 +47,28 @@ def run(args: argparse.Namespace) -> int:
             reason = max(p.invalid_reasons, key=p.invalid_reasons.get)
             warnings.warn(f"{p.model}: {1 - p.valid_fraction:.1%} of the draws were dropped: "
                           f"{reason}", DrumrollWarning, stacklevel=1)
+        overflowed = _overflowed(p.summary())
+        if overflowed:
+            warnings.warn(f"{p.model}: {', '.join(overflowed)}: the draws are too large to "
+                          "average (the mean or sd overflows); check the priors' ranges and "
+                          "units", DrumrollWarning, stacklevel=1)
     if args.json:
         print(json.dumps({p.model: p.summary() for p in predictions}, indent=2))
     else:
         print(_table(predictions, args))
     return 0
+
+
+def _overflowed(summary: dict) -> list[str]:
+    """The quantities of a prediction's ``summary`` whose mean or sd is not a finite
+    number, by their printed names."""
+    names = [quantity.plain for key, quantity in DERIVED.items() if key in summary
+             and not all(math.isfinite(summary[key][k]) for k in ("mean", "sd"))]
+    flights = summary["flights_s"]
+    names += [f"T_{k}" for k, values in enumerate(zip(flights["mean"], flights["sd"],
+                                                      strict=True), 1)
+              if not all(math.isfinite(v) for v in values)]
+    return names
 
 
 def _table(predictions: list[Prediction], args: argparse.Namespace) -> str:

@@ -116,11 +116,14 @@ def run(args: argparse.Namespace) -> int:
     writers = {}
     if args.output is not None:
         writers[args.output] = lambda tmp: tmp.write_text(text, encoding="utf-8")
-    if args.plot is not None:
-        from drumroll.table.plot import plot_table
+    with contextlib.ExitStack() as drawing:
+        if args.plot is not None:
+            from drumroll.reporting.plot_style import missing_glyphs_said_once
+            from drumroll.table.plot import plot_table
 
-        writers[args.plot] = lambda tmp: plot_table(result, tmp, overwrite=True)
-    write_together(writers, overwrite=args.force)
+            drawing.enter_context(missing_glyphs_said_once(args.plot.name))
+            writers[args.plot] = lambda tmp: plot_table(result, tmp, overwrite=True)
+        write_together(writers, overwrite=args.force)
     if args.output is not None:
         progress.say(f"table written to {args.output}")
     if args.plot is not None:

@@ -31,6 +31,7 @@ from drumroll.errors import DrumrollError
 from drumroll.interruption import raise_if_interrupted
 from drumroll.onsets import ONSET_FILE_SUFFIXES
 from drumroll.reporting.figures import DRAW_SECONDS, FIGURES, FigureInputs, figure_files
+from drumroll.reporting.plot_style import missing_glyphs_said_once
 from drumroll.reporting.posterior_file import load_posteriors, save_posteriors
 from drumroll.reporting.report import write_report
 from drumroll.workers import process_pool
@@ -130,7 +131,8 @@ def _draw_figure(key: str, inputs: FigureInputs, path: Path) -> Path:
     enabled = gc.isenabled()
     gc.disable()
     try:
-        return FIGURES[key].draw(inputs, path, True)
+        with missing_glyphs_said_once(path.name):
+            return FIGURES[key].draw(inputs, path, True)
     finally:
         if enabled:
             gc.enable()

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -19,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll import fileio
+from drumroll.errors import DrumrollWarning
 from drumroll.physics.models import MODELS
 from drumroll.quantities import DERIVED, DRAW_DERIVED, quantity
 
@@ -89,6 +92,33 @@ def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -
             path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white",
                                           pil_kwargs={"compress_level": PNG_COMPRESSION}),
             overwrite=overwrite)
+
+
+#: Matplotlib's warning of a character its font cannot draw (one warning per character).
+_MISSING_GLYPH = re.compile(r"^Glyph (\d+) .*missing from font")
+
+
+@contextlib.contextmanager
+def missing_glyphs_said_once(figure: str) -> Iterator[None]:
+    """Draw and save inside this block: matplotlib's warnings of characters its font has no
+    glyph for (a file name or a run label in a script it lacks, an emoji), one per
+    character in its own words, become one warning naming the figure and the characters.
+    Other warnings pass through as they were."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    missing = []
+    for warning in caught:
+        match = _MISSING_GLYPH.match(str(warning.message))
+        if match:
+            missing.append(chr(int(match.group(1))))
+        else:
+            warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                                   warning.lineno, source=warning.source)
+    if missing:
+        warnings.warn(f"{figure}: the figure's font cannot draw {''.join(dict.fromkeys(missing))} "
+                      "(from a file name or label); they show as empty boxes",
+                      DrumrollWarning, stacklevel=3)
 
 
 def model_color(model: str, index: int = 0) -> str:
