@@ -12,7 +12,7 @@ from pathlib import Path
 from drumroll.cli.arguments import positive_int
 from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
-from drumroll.fileio import check_writable, write_together
+from drumroll.fileio import check_folder_writable, check_writable, write_together
 
 
 class _TableFormats:
@@ -93,6 +93,8 @@ def run(args: argparse.Namespace) -> int:
             check_writable(path, overwrite=args.force)
     if args.plot is not None and args.plot.suffix.lower() != ".png":
         raise DrumrollError(f"{args.plot}: the figure is written as PNG; name it *.png")
+    if not args.no_cache:
+        _check_cache_folder(args.cache_dir or runs.cache_dir)
     progress = Progress(quiet=args.quiet)
     options = {"workers": args.workers, "cache_dir": args.cache_dir,
                "use_cache": not args.no_cache, "progress": progress.say}
@@ -129,6 +131,18 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         progress.say(f"figure written to {args.plot}")
     return 0
+
+
+def _check_cache_folder(folder: Path) -> None:
+    """Refuse, before any work, a cache folder that is a file or under one, or where no file
+    can be made (it is made, with its parents, when the first run is cached)."""
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise DrumrollError(f"{existing}: is not a directory; the cache needs a folder "
+                            "(--cache-dir DIR, or --no-cache)")
+    check_folder_writable(existing)
 
 
 def main(argv: list[str] | None = None) -> int:

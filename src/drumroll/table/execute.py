@@ -210,8 +210,10 @@ def read_cached(path: Path) -> RunRow | None:
 def write_cached(folder: Path, key: str, entry: RunRow | dict[str, Any]) -> None:
     """Write a cache entry (a row, or a joint fit's JSON) atomically.
 
-    A disk without room for it is a warning (the same line for every entry, shown once):
-    the table is complete without its cache, only the next run computes it again.
+    A cache that cannot be written (no room on the disk, a folder gone read-only or
+    replaced by a file since the command checked it) is a warning, the same line for every
+    entry (shown once): the table is complete without it, only the next run computes it
+    again.
     """
     data = entry.to_json() if isinstance(entry, Record) else entry
     try:
@@ -220,10 +222,11 @@ def write_cached(folder: Path, key: str, entry: RunRow | dict[str, Any]) -> None
                           json.dumps(data, indent=1, ensure_ascii=False), overwrite=True)
     except fileio.NoSpace as exc:
         reason = exc.reason
-    except OSError as exc:  # the folder itself
-        if not fileio.no_space(exc):
-            raise
-        reason = fileio.NO_SPACE[exc.errno][0]
+    except DrumrollError as exc:  # the entry's file cannot be made there
+        reason = str(exc).removeprefix(f"{folder / key}.json: ")
+    except OSError as exc:
+        reason = (fileio.NO_SPACE[exc.errno][0] if fileio.no_space(exc)
+                  else exc.strerror or str(exc))
     else:
         return
     warnings.warn(f"{folder}: the cache is not written ({reason}); the next run computes "

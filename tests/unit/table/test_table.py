@@ -143,6 +143,16 @@ def test_outputs_checked_before_sampling(folder, capsys, no_sampling):
     assert (folder / "table.md").read_text() == "mine"
 
 
+@pytest.mark.parametrize("cache", ["h80.txt", "h80.txt/deeper"])
+def test_a_cache_folder_that_is_a_file_is_refused_before_sampling(folder, capsys, no_sampling,
+                                                                  cache):
+    # Found by fuzzing the options: an internal error (FileExistsError) after every run
+    # was estimated, the table lost.
+    err = cli_error(folder, runs_text(RUN_H80), capsys, "--cache-dir", str(folder / cache))
+    assert err == (f"drumroll: error: {folder / 'h80.txt'}: is not a directory; the cache "
+                   "needs a folder (--cache-dir DIR, or --no-cache)")
+
+
 def test_dask_missing_is_one_line(folder, capsys, monkeypatch, no_sampling):
     import builtins
 
