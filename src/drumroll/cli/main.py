@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import os
 import re
 import signal
@@ -19,7 +20,7 @@ from collections.abc import Callable, Sequence
 
 from drumroll import fileio, interruption
 from drumroll._version import __version__
-from drumroll.errors import DrumrollError
+from drumroll.errors import DrumrollError, DrumrollWarning
 
 #: Subcommand modules, in the order ``drumroll --help`` lists them.
 SUBCOMMANDS = ("predict", "onsets", "simulate", "estimate", "table")
@@ -102,6 +103,21 @@ def _file_size_limit_as_error() -> object | None:
     return signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
+class _LibraryLog(logging.Handler):
+    """The command's handler of the libraries' log records (emcee's, ArviZ's, …), on the
+    root logger while it runs: they report on the sampler and the files in their own terms,
+    where drumroll says what matters in its own (convergence, damaged files). Without
+    ``--debug`` an error is one warning line, its first line only, and anything less is
+    dropped; with ``--debug`` every record of level WARNING and up is shown that way."""
+
+    def __init__(self, debug: bool) -> None:
+        super().__init__(logging.WARNING if debug else logging.ERROR)
+
+    def emit(self, record: logging.LogRecord) -> None:
+        lines = record.getMessage().strip().splitlines() or [""]
+        warnings.warn(f"{record.name}: {lines[0]}", DrumrollWarning, stacklevel=1)
+
+
 def _unraisable_hook(debug: bool):
     """A :data:`sys.unraisablehook` for a command: an exception Python cannot raise (one in a
     weak reference's callback or a destructor) printed as one line, not a traceback; a stop
@@ -144,6 +160,8 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     previous = interruption.install()
     size_limit = _file_size_limit_as_error()
     show_warning, warnings.showwarning = warnings.showwarning, _warning_printer(debug)
+    library_log = _LibraryLog(debug)
+    logging.root.addHandler(library_log)  # before ArviZ is imported: it adds none of its own
     unraisable_hook, sys.unraisablehook = sys.unraisablehook, _unraisable_hook(debug)
     try:
         status = int(args.func(args) or 0)
@@ -175,6 +193,7 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         return _internal_error(parser.prog, exc)
     finally:
         warnings.showwarning, sys.unraisablehook = show_warning, unraisable_hook
+        logging.root.removeHandler(library_log)
         interruption.restore(previous)
         if size_limit is not None:
             signal.signal(signal.SIGXFSZ, size_limit)
