@@ -109,6 +109,19 @@ def test_posterior_file_reopens_with_every_group(ball):
             assert values.attrs[key] == pytest.approx(summary["parameters"][name][key])
 
 
+def test_the_same_seed_gives_the_same_summary(ball, tmp_path):
+    """Run again with the same seed: summary.json is the same byte for byte, apart from the
+    seconds each stage took."""
+    _, out, source, config = ball
+    again = tmp_path / "again"
+    assert main(["estimate", str(source), "--prior", str(config), "--out", str(again),
+                 "-q"]) == 0
+    first, second = (json.loads((folder / "summary.json").read_text())
+                     for folder in (out, again))
+    assert first.pop("seconds").keys() == second.pop("seconds").keys()
+    assert first == second
+
+
 def test_existing_outputs_are_kept_without_force(ball, capsys):
     code, out, source, config = ball
     before = (out / "summary.json").read_bytes()
