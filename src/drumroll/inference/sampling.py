@@ -231,20 +231,21 @@ JUMP_PROBABILITY = 0.1
 
 
 def moves() -> list:
-    """emcee's red-blue differential-evolution moves with their weights (see above)."""
-    import emcee
+    """emcee's red-blue differential-evolution moves with their weights (see above), their
+    acceptance step vectorised (:mod:`~drumroll.inference.ensemble`: the same chain)."""
+    from drumroll.inference.ensemble import DEMove
 
-    return [(emcee.moves.DEMove(), 1.0 - JUMP_PROBABILITY),
-            (emcee.moves.DEMove(gamma0=1.0), JUMP_PROBABILITY)]
+    return [(DEMove(), 1.0 - JUMP_PROBABILITY), (DEMove(gamma0=1.0), JUMP_PROBABILITY)]
 
 
 def ensemble_sampler(target: Callable[[NDArray], NDArray], walkers: int, ndim: int,
                      seed: int):
-    """An :class:`emcee.EnsembleSampler` of ``target`` (one batched call per half-ensemble),
-    seeded by ``seed`` and moved by :func:`moves`."""
-    import emcee
+    """An :class:`emcee.EnsembleSampler` of ``target`` (one batched call per half-ensemble;
+    :class:`drumroll.inference.ensemble.EnsembleSampler`), seeded by ``seed`` and moved by
+    :func:`moves`."""
+    from drumroll.inference.ensemble import EnsembleSampler
 
-    sampler = emcee.EnsembleSampler(walkers, ndim, target, moves=moves(), vectorize=True)
+    sampler = EnsembleSampler(walkers, ndim, target, moves=moves(), vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()  # emcee draws from a RandomState
     return sampler
 

@@ -94,6 +94,30 @@ def test_moves_keep_a_correlated_gaussian_invariant():
     np.testing.assert_allclose(np.corrcoef(flat.T), corr, atol=0.03)
 
 
+def test_lean_sampler_gives_emcee_s_own_chain():
+    """The vectorised acceptance step and log-density bookkeeping
+    (:mod:`drumroll.inference.ensemble`) draw emcee's random numbers in emcee's order: the
+    chain equals that of emcee's own sampler and moves, number for number, rejections and
+    forbidden points (−inf) included."""
+    from drumroll.inference.sampling import JUMP_PROBABILITY
+
+    def target(z):
+        out = -0.5 * np.sum((z / [1.0, 0.1, 3.0]) ** 2, axis=1)
+        return np.where(z[:, 0] > 1.5, -np.inf, out)  # a wall some walkers hit
+
+    start = np.random.default_rng(3).normal(0.0, 0.1, (16, 3))
+    ours = ensemble_sampler(target, 16, 3, seed=11)
+    ours.run_mcmc(start, 300)
+    theirs = emcee.EnsembleSampler(16, 3, target, vectorize=True, moves=[
+        (emcee.moves.DEMove(), 1.0 - JUMP_PROBABILITY),
+        (emcee.moves.DEMove(gamma0=1.0), JUMP_PROBABILITY)])
+    theirs.random_state = np.random.RandomState(11).get_state()
+    theirs.run_mcmc(start, 300)
+    np.testing.assert_array_equal(ours.get_chain(), theirs.get_chain())
+    np.testing.assert_array_equal(ours.get_log_prob(), theirs.get_log_prob())
+    np.testing.assert_array_equal(ours.acceptance_fraction, theirs.acceptance_fraction)
+
+
 POWERLAW = {"model": "powerlaw",
             "priors": {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
                        "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0},
