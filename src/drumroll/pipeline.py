@@ -6,8 +6,10 @@ each model
 (:class:`~drumroll.inference.posterior.LogPosterior`) → ensemble MCMC
 (:func:`~drumroll.inference.sampling.run_emcee`) and, for Bayes factors, ln Z
 (:func:`~drumroll.inference.evidence.choose_evidence`: importance sampling checked by its
-Pareto k, dynesty where that fails) → ArviZ InferenceData → PSIS-LOO
-comparison and verdict → :class:`Result`, which :mod:`drumroll.outputs` writes to disk.
+Pareto k, dynesty where that fails) → the groups of ArviZ InferenceData
+(:class:`~drumroll.inference.draws.Draws`) → PSIS-LOO comparison and verdict →
+:class:`Result`, which :mod:`drumroll.outputs` writes to disk. ArviZ itself is imported
+only when a caller asks for InferenceData (:attr:`Result.idatas`).
 """
 
 from __future__ import annotations
@@ -29,8 +31,9 @@ from drumroll._version import __version__
 from drumroll.audio.io import AudioSource
 from drumroll.config import Config, load_config
 from drumroll.errors import DrumrollError
+from drumroll.inference.draws import Draws
 from drumroll.inference.evidence import Evidence, choose_evidence
-from drumroll.inference.inference_data import build_inference_data, parameter_draws
+from drumroll.inference.inference_data import build_draws, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.results import (
@@ -46,7 +49,7 @@ from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
 from drumroll.quantities import BY_NAME
 from drumroll.workers import process_pool
 
-if TYPE_CHECKING:  # ArviZ is imported while the models are sampled (see estimate)
+if TYPE_CHECKING:  # ArviZ is imported only for Result.idatas
     import arviz as az
 
     from drumroll.inference.comparison import LooResult
@@ -63,18 +66,27 @@ Progress = Callable[[str], None]
 
 @dataclass
 class ModelFit:
-    """One model's fit: its posterior, chain, InferenceData (thinned to at most
-    :data:`MAX_DRAWS` draws), evidence (with its check), and the summaries of its posterior
-    variables computed on every draw."""
+    """One model's fit: its posterior, chain, draws in InferenceData's groups (thinned to at
+    most :data:`MAX_DRAWS` draws), evidence (with its check), and the summaries of its
+    posterior variables computed on every draw."""
 
     model: str
     log_posterior: LogPosterior
     chain: Chain
-    idata: az.InferenceData
+    draws: Draws
     evidence: Evidence | None
     evidence_check: Evidence | None
     seconds: dict[str, float]
     stats: dict[str, ParameterSummary] = field(default_factory=dict)
+    _idata: Any = field(default=None, init=False, repr=False, compare=False)
+
+    @property
+    def idata(self) -> az.InferenceData:
+        """:attr:`draws` as an :class:`arviz.InferenceData` (made, and ArviZ imported, on
+        first use)."""
+        if self._idata is None:
+            self._idata = self.draws.to_inference_data()
+        return self._idata
 
 
 @dataclass
@@ -122,8 +134,15 @@ class Result:
 
     @property
     def idatas(self) -> dict[str, az.InferenceData]:
-        """Model name → InferenceData (thinned to at most :data:`MAX_DRAWS` draws)."""
+        """Model name → InferenceData (thinned to at most :data:`MAX_DRAWS` draws; ArviZ is
+        imported on first use)."""
         return {name: fit.idata for name, fit in self.fits.items()}
+
+    @property
+    def draws(self) -> dict[str, Draws]:
+        """Model name → the same groups as :attr:`idatas`, as :class:`Draws` (what the
+        outputs are written from)."""
+        return {name: fit.draws for name, fit in self.fits.items()}
 
     def parameter(self, name: str) -> ParameterSummary:
         """The main model's summary of one quantity (``alpha``, ``t_b``, …)."""
@@ -264,19 +283,17 @@ def evidence_summary(evidence: Evidence, check: Evidence | None
                    "disagree: treat the Bayes factors with care")
 
 
-def thin_draws(idata: az.InferenceData, max_draws: int) -> az.InferenceData:
+def thin_draws(draws: Draws, max_draws: int) -> Draws:
     """Keep every k-th draw (latest last) so that at most ``max_draws`` remain per model."""
-    chains, draws = idata.posterior.sizes["chain"], idata.posterior.sizes["draw"]
-    step = -(-chains * draws // max_draws)  # ceiling division
+    chains, n = draws.posterior.sizes["chain"], draws.posterior.sizes["draw"]
+    step = -(-chains * n // max_draws)  # ceiling division
     if step <= 1:
-        idata.posterior.attrs.update(stored_every=1, draws_before_storing=chains * draws)
-        return idata
-    keep = slice((draws - 1) % step, None, step)
-    thinned = idata.isel(draw=keep, groups=["posterior", "posterior_predictive",
-                                             "log_likelihood", "sample_stats"])
-    thinned.sample_stats.attrs["thin"] = int(idata.sample_stats.attrs.get("thin", 1)) * step
+        draws.posterior.attrs.update(stored_every=1, draws_before_storing=chains * n)
+        return draws
+    thinned = draws.thinned(np.arange((n - 1) % step, n, step))
+    thinned.sample_stats.attrs["thin"] = int(draws.sample_stats.attrs.get("thin", 1)) * step
     # Say how the stored draws were chosen, where a reader of posterior.nc looks first.
-    thinned.posterior.attrs.update(stored_every=step, draws_before_storing=chains * draws)
+    thinned.posterior.attrs.update(stored_every=step, draws_before_storing=chains * n)
     return thinned
 
 
@@ -287,7 +304,7 @@ def model_seed(base: int, index: int) -> int:
 
 def _while_sampling(meanwhile: Callable[[], object] | None) -> None:
     """What this process does while the workers sample: import what the rest of
-    :func:`estimate` needs (ArviZ takes a second or two), then the caller's ``meanwhile``."""
+    :func:`estimate` needs, then the caller's ``meanwhile``."""
     importlib.import_module("drumroll.inference.comparison")
     importlib.import_module("drumroll.inference.summary")
     if meanwhile is not None:
@@ -372,8 +389,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     post_seconds = 0.0
 
     def finish(model: str, output: tuple) -> None:
-        """A model's InferenceData and PSIS-LOO, as soon as its fit is back (this process is
-        otherwise idle while the others sample)."""
+        """A model's draws (InferenceData's groups) and PSIS-LOO, as soon as its fit is back
+        (this process is otherwise idle while the others sample)."""
         nonlocal post_seconds
         from drumroll.inference.comparison import loo
 
@@ -381,9 +398,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         chain, evidence, check, fit_seconds = output
         log_posterior = posteriors[model]
         # The same generator as reported_draws: the stopping check saw these very numbers.
-        idata = build_inference_data(log_posterior, chain, np.random.default_rng(seeds[model]))
-        fits[model] = ModelFit(model, log_posterior, chain, idata, evidence, check, fit_seconds)
-        loos[model] = loo(idata)
+        draws = build_draws(log_posterior, chain, np.random.default_rng(seeds[model]))
+        fits[model] = ModelFit(model, log_posterior, chain, draws, evidence, check, fit_seconds)
+        loos[model] = loo(draws)
         post_seconds += time.perf_counter() - begun
 
     if workers == 1:
@@ -395,7 +412,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             say(f"{model}: done")
     else:
         # emcee (and scipy.stats with it) before the workers fork, so that they share it;
-        # ArviZ, the figures' libraries and so on after, while the workers sample.
+        # the figures' libraries and so on after, while the workers sample.
         importlib.import_module("emcee")
         with process_pool(workers) as pool:
             futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
@@ -418,10 +435,10 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     )
 
     started = time.perf_counter()
-    adequacies = {m: adequacy(f.idata) for m, f in fits.items()}  # on every draw
+    adequacies = {m: adequacy(f.draws) for m, f in fits.items()}  # on every draw
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
     rows, preferred, verdict, loos = compare_models(
-        {m: f.idata for m, f in fits.items()}, config.model, evidences, loos,
+        {m: f.draws for m, f in fits.items()}, config.model, evidences, loos,
         inadequate=[m for m, a in adequacies.items() if a.adequate is False],
         priors={m: f.log_posterior.space.priors for m, f in fits.items()})
     averaged = None
@@ -429,13 +446,13 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         from drumroll.inference.model_average import model_average, stacking_weights
 
         weights = stacking_weights({m: loos[m].pointwise for m in fits})
-        averaged = model_average({m: f.idata.posterior for m, f in fits.items()}, weights,
+        averaged = model_average({m: f.draws.posterior for m, f in fits.items()}, weights,
                                  settings.hdi_prob, seed=settings.sampler.seed)
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
-    parameters = parameter_summary(main.idata, settings.hdi_prob)
-    model_diagnostics = {m: diagnostics(f.idata, f.chain, loos[m], settings)
+    parameters = parameter_summary(main.draws, settings.hdi_prob)
+    model_diagnostics = {m: diagnostics(f.draws, f.chain, loos[m], settings)
                          for m, f in fits.items()}
     evidence_entries = {}
     for m, fit in fits.items():
@@ -451,21 +468,21 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             model_diagnostics[m] = replace(
                 model_diagnostics[m], warnings=(misfit, *model_diagnostics[m].warnings))
     models_summary: dict[str, ModelSummary] = {}
-    observed = observed_flights(main.idata)
+    observed = observed_flights(main.draws)
     for model, fit in fits.items():
         # Every draw's R-hat and ESS travel with the variables (for posterior.nc's readers),
         # since the stored posterior is thinned below.
-        stats = parameters if model == config.model else parameter_summary(fit.idata,
+        stats = parameters if model == config.model else parameter_summary(fit.draws,
                                                                             settings.hdi_prob)
         fit.stats = stats
         models_summary[model] = ModelSummary(
-            parameters=stats, flights=flight_series(fit.idata, settings.hdi_prob),
-            residuals=onset_residuals(fit.idata, settings.hdi_prob), adequacy=adequacies[model])
-        for name, values in fit.idata.posterior.data_vars.items():
+            parameters=stats, flights=flight_series(fit.draws, settings.hdi_prob),
+            residuals=onset_residuals(fit.draws, settings.hdi_prob), adequacy=adequacies[model])
+        for name, values in fit.draws.posterior.data_vars.items():
             # For the readers of posterior.nc, whose draws are thinned below.
             values.attrs.update({key: getattr(stats[name], key) for key in (
                 "r_hat", "ess_bulk", "ess_tail") if getattr(stats[name], key) is not None})
-        fit.idata = thin_draws(fit.idata, MAX_DRAWS)
+        fit.draws = thin_draws(fit.draws, MAX_DRAWS)
     summary = Summary(
         model=config.model, n_onsets=len(onsets), roll=fitted.roll, n_rolls=len(fitted.sizes),
         missing_bounces=tuple(data.missing),

@@ -52,3 +52,17 @@ def central_band(draws: NDArray[np.float64], prob: float = 0.9
     """Lower edge, median and upper edge of the central ``prob`` interval along axis 0."""
     lo, mid, hi = np.nanquantile(draws, [(1 - prob) / 2, 0.5, (1 + prob) / 2], axis=0)
     return lo, mid, hi
+
+
+def hdi(draws: ArrayLike, prob: float = 0.9) -> tuple[float, float]:
+    """The narrowest interval holding ``prob`` of the draws (all of them, flattened): the
+    highest-density interval of a unimodal posterior, as ``arviz.hdi`` computes it (the
+    shortest of the windows spanning ⌊prob n⌋ sorted draws; NaN draws give NaN)."""
+    ordered = np.sort(np.asarray(draws, float).ravel())
+    n = ordered.size
+    inside = math.floor(prob * n)
+    if n - inside <= 0:
+        raise ValueError("too few draws for an interval")
+    widths = ordered[inside:] - ordered[:n - inside]
+    first = int(np.argmin(widths))
+    return float(ordered[first]), float(ordered[first + inside])

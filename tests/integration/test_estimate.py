@@ -122,6 +122,27 @@ def test_the_same_seed_gives_the_same_summary(ball, tmp_path):
     assert first == second
 
 
+def test_the_command_imports_neither_arviz_nor_xarray(ball, tmp_path):
+    """Every output (posterior.nc, the figures, the summaries) is made without ArviZ, xarray,
+    pandas and pyplot (0.7 CPU-s to import); the API's ``Result.idatas`` still gives ArviZ
+    InferenceData."""
+    _, _, source, config = ball
+    code = ("import sys; from drumroll.cli.main import main; "
+            f"status = main(['estimate', {str(source)!r}, '--prior', {str(config)!r}, "
+            f"'--out', {str(tmp_path / 'out')!r}, '-q']); "
+            "heavy = [m for m in ('arviz', 'xarray', 'pandas', 'corner', 'matplotlib.pyplot') "
+            "if sys.modules.get(m) is not None]; assert status == 0 and not heavy, "
+            "(status, heavy)")
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+    assert (tmp_path / "out" / "posterior.nc").stat().st_size > 0
+    result = estimate(source, config)
+    import arviz as az
+
+    assert isinstance(result.idatas["powerlaw"], az.InferenceData)
+    assert result.idatas["powerlaw"].posterior["alpha"].shape == \
+        result.draws["powerlaw"].posterior["alpha"].shape
+
+
 def test_existing_outputs_are_kept_without_force(ball, capsys):
     code, out, source, config = ball
     before = (out / "summary.json").read_bytes()

@@ -1,4 +1,4 @@
-"""Model comparison: PSIS-LOO (ArviZ) and Bayes factors (nested sampling), and a verdict.
+"""Model comparison: PSIS-LOO and Bayes factors (nested sampling), and a verdict.
 
 Signs: every difference is **main model − other model**, so a positive ``elpd_loo_diff`` or
 ``log_bayes_factor`` favours the main model.
@@ -18,18 +18,24 @@ A preference is claimed only when it is clear (the verdict must not over-claim):
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import arviz as az
 import numpy as np
 
 from drumroll.distributions import Distribution
+from drumroll.inference.convergence import ess_mean
 from drumroll.inference.evidence import Evidence
 from drumroll.inference.prior_sensitivity import PRIOR_DOMINATED_NATS, bayes_factor_shifts
+from drumroll.inference.psis import smoothed_log_weights
 from drumroll.inference.results import ComparisonRow, LooSummary
 from drumroll.physics.models import MODELS
+
+if TYPE_CHECKING:
+    import arviz as az
+
+    from drumroll.inference.draws import Draws
 
 LOO_MIN_DIFF = 4.0
 SIGMAS = 2.0
@@ -64,17 +70,39 @@ class LooResult:
         return [int(k) for k in (bad if self.bounces is None else self.bounces[bad])]
 
 
-def loo(idata: az.InferenceData) -> LooResult:
-    """PSIS-LOO of one fit, keeping the pointwise values for paired differences."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # high Pareto k is reported by name, not as a warning
-        result = az.loo(idata, pointwise=True)
-    pareto_k = result.pareto_k
-    bounces = (np.asarray(pareto_k["onset"].values) if "onset" in getattr(pareto_k, "coords", {})
-               else None)
-    return LooResult(elpd=float(result.elpd_loo), se=float(result.se),
-                     pointwise=np.asarray(result.loo_i), pareto_k=np.asarray(pareto_k),
-                     bounces=bounces)
+def loo(idata: Draws | az.InferenceData) -> LooResult:
+    """PSIS-LOO of one fit (:class:`~drumroll.inference.draws.Draws` or InferenceData),
+    keeping the pointwise values for paired differences: ``arviz.loo(idata, pointwise=True)``
+    computed here, step for step (tests compare the two), so that the estimate need not import
+    ArviZ.
+
+    Each onset's draws are weighted by 1 / p(t_i | θ), Pareto-smoothed
+    (:func:`~drumroll.inference.psis.smoothed_log_weights`) with the relative efficiency
+    r_eff = mean ESS of the posterior variables / draws (ArviZ's), and elpd_i = log Σ w p.
+    """
+    log_lik = idata.log_likelihood["onset_time"]
+    values = np.asarray(log_lik.values, float)
+    n_chain, n_draw = values.shape[:2]
+    n_samples = n_chain * n_draw
+    pointwise = values.reshape(n_samples, -1).T  # (onsets, draws), draws chain by chain
+    if n_chain == 1:
+        r_eff = 1.0
+    else:
+        posterior = idata.posterior
+        r_eff = float(np.mean(ess_mean(np.stack([np.asarray(posterior[name].values, float)
+                                                  .reshape(n_chain, n_draw)
+                                                  for name in posterior.data_vars]))))
+        r_eff /= n_samples
+    elpd_i = np.empty(pointwise.shape[0])
+    pareto_k = np.empty(pointwise.shape[0])
+    for i, row in enumerate(pointwise):
+        log_w, pareto_k[i] = smoothed_log_weights(-row, r_eff)
+        terms = log_w + row
+        top = np.max(terms)
+        elpd_i[i] = top + math.log(np.sum(np.exp(terms - top)))
+    bounces = (np.asarray(log_lik["onset"].values) if "onset" in log_lik.coords else None)
+    return LooResult(elpd=float(elpd_i.sum()), se=float((elpd_i.size * np.var(elpd_i)) ** 0.5),
+                     pointwise=elpd_i, pareto_k=pareto_k, bounces=bounces)
 
 
 def _sign(value: float, error: float, minimum: float) -> int:
@@ -96,7 +124,7 @@ def decide(elpd_diff: float, elpd_diff_se: float, log_bf: float | None = None,
     return 0
 
 
-def compare_models(idatas: dict[str, az.InferenceData], main: str,
+def compare_models(idatas: dict[str, Draws | az.InferenceData], main: str,
                    evidences: dict[str, Evidence] | None = None,
                    loos: dict[str, LooResult] | None = None,
                    inadequate: Collection[str] = (),

@@ -154,6 +154,15 @@ def r_hat(draws: NDArray, groups: int = RHAT_GROUPS) -> NDArray:
     return out
 
 
+def ess_mean(draws: NDArray) -> NDArray:
+    """ESS of the mean of ``(q, walkers, n)`` draws per quantity (ArviZ's ``method="mean"``:
+    split chains, not rank-normalised), as PSIS-LOO's relative efficiency uses it."""
+    draws = np.asarray(draws, float)
+    out = _ess(_split(draws))
+    out[~np.all(np.isfinite(draws), axis=(1, 2))] = np.nan
+    return out
+
+
 def ess_bulk(draws: NDArray) -> NDArray:
     """Bulk ESS of ``(q, walkers, n)`` draws per quantity (walkers as chains)."""
     draws = np.asarray(draws, float)

@@ -1,4 +1,5 @@
-"""From an emcee chain to ArviZ InferenceData, in the units of the paper's tables.
+"""From an emcee chain to ArviZ InferenceData's groups (:class:`~drumroll.inference.draws.Draws`,
+convertible to InferenceData), in the units of the paper's tables.
 
 Groups: ``posterior`` (sampled parameters and derived quantities, under the summary names:
 ``alpha``, ``t_b``, ``t_c``, ``pivot_mm``, ``height_mm``, ``release_speed_m_s``,
@@ -16,21 +17,22 @@ last observed bounce, gaps included.
 
 from __future__ import annotations
 
-import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from drumroll._version import __version__
+from drumroll.inference.draws import Draws
 from drumroll.inference.loo import conditional_pointwise
 from drumroll.inference.posterior import LogPosterior, scatter_pointwise_and_noise
 from drumroll.inference.sampling import Chain
 from drumroll.physics.geometry import effective_height
 from drumroll.quantities import BY_NAME, DERIVED, DRAW_DERIVED
 
-if TYPE_CHECKING:  # ArviZ takes a second to import: only building InferenceData needs it
+if TYPE_CHECKING:  # ArviZ takes a second to import: only converting to InferenceData needs it
     import arviz as az
+
 
 def _flat(array: NDArray) -> NDArray:
     """(chain, draw, …) → (chain × draw, …)."""
@@ -81,9 +83,9 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
     return variables, impacts.reshape((*shape, -1)), t0.reshape(shape)
 
 
-def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.random.Generator,
-                         n_prior: int = 2000) -> az.InferenceData:
-    """Every group of one model's fit (see the module docstring)."""
+def build_draws(log_posterior: LogPosterior, chain: Chain, rng: np.random.Generator,
+                n_prior: int = 2000) -> Draws:
+    """Every group of one model's fit (see the module docstring), as :class:`Draws`."""
     data = log_posterior.data
     samples = chain.samples
     variables, impacts, t0 = parameter_draws(log_posterior, samples, rng)
@@ -113,32 +115,32 @@ def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.rand
     coords = {"onset": data.bounces, "flight": np.arange(1, data.n_flights + 1)}
     dims = {"onset_time": ["onset"], "onset_time_model": ["onset"],
             "flight_time_model": ["flight"], "onset_sigma_s": ["onset"]}
-    import arviz as az
-
-    with warnings.catch_warnings():
-        # ArviZ guesses that arrays with more chains than draws were passed transposed; an
-        # ensemble of 128 walkers, thinned, has exactly that shape.
-        warnings.filterwarnings("ignore", message="More chains", category=UserWarning)
-        idata = az.from_dict(
-            posterior=variables,
-            posterior_predictive={"onset_time": predicted,
-                                  "onset_time_model": model_times.reshape(pointwise.shape),
-                                  "flight_time_model": flights},
-            log_likelihood={"onset_time": pointwise},
-            observed_data={"onset_time": data.times},
-            constant_data={"onset_sigma_s": data.sigmas},
-            prior=prior_variables,
-            sample_stats={"lp": chain.log_prob},
-            coords=coords, dims=dims,
-            attrs={"model": log_posterior.space.model, "noise": log_posterior.noise,
-                   "drumroll_version": __version__},
-        )
-    idata.sample_stats.attrs.update({
+    # The groups, names and dimensions of arviz.from_dict, in its order.
+    draws = Draws.from_dict({
+        "posterior": variables,
+        "posterior_predictive": {"onset_time": predicted,
+                                 "onset_time_model": model_times.reshape(pointwise.shape),
+                                 "flight_time_model": flights},
+        "log_likelihood": {"onset_time": pointwise},
+        "sample_stats": {"lp": chain.log_prob},
+        "prior": prior_variables,
+        "observed_data": {"onset_time": data.times},
+        "constant_data": {"onset_sigma_s": data.sigmas},
+    }, coords=coords, dims=dims, attrs={"model": log_posterior.space.model,
+                                        "noise": log_posterior.noise,
+                                        "drumroll_version": __version__})
+    draws.sample_stats.attrs.update({
         "tau_steps": [float(t) for t in chain.tau], "tau_parameters": list(
             BY_NAME[n].key for n in log_posterior.space.names),
         "acceptance": chain.acceptance, "n_steps": chain.n_steps, "burn": chain.burn,
         "thin": chain.thin, "converged": int(chain.converged)})
-    return idata
+    return draws
+
+
+def build_inference_data(log_posterior: LogPosterior, chain: Chain, rng: np.random.Generator,
+                         n_prior: int = 2000) -> az.InferenceData:
+    """:func:`build_draws` as an :class:`arviz.InferenceData`."""
+    return build_draws(log_posterior, chain, rng, n_prior).to_inference_data()
 
 
 def observed_onsets(idata) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import arviz as az
 import numpy as np
 from numpy.typing import NDArray
 
@@ -22,32 +21,39 @@ from drumroll.inference.results import (
 )
 from drumroll.inference.sampling import Chain
 from drumroll.onsets.table import single_flights
-from drumroll.stats import central_band
+from drumroll.stats import central_band, hdi
+
+if TYPE_CHECKING:
+    import arviz as az
+
+    from drumroll.inference.draws import Draws
+
+    #: One fit's groups: drumroll's own (the estimate's) or ArviZ's (any caller's).
+    Fit = Draws | az.InferenceData
 
 
-def parameter_summary(idata: az.InferenceData, hdi_prob: float = 0.9
+def parameter_summary(idata: Fit, hdi_prob: float = 0.9
                       ) -> dict[str, ParameterSummary]:
     """Mean, sd, median, HDI, R-hat and bulk/tail ESS of every posterior variable, by name
     (ESS treats the walkers as chains, R-hat groups of walkers:
     :mod:`~drumroll.inference.convergence`, the same numbers the sampler's stopping rule
     checked)."""
     posterior = idata.posterior
-    hdi = az.hdi(posterior, hdi_prob=hdi_prob)
     stats = diagnose({name: np.asarray(values) for name, values in posterior.data_vars.items()})
     out = {}
     for name, values in posterior.data_vars.items():
         draws = np.asarray(values)
+        low, high = hdi(draws, hdi_prob)
         out[str(name)] = ParameterSummary(
             mean=json_number(draws.mean()), sd=json_number(draws.std(ddof=1)),
             median=json_number(np.median(draws)),
-            hdi_low=json_number(hdi[name].sel(hdi="lower")),
-            hdi_high=json_number(hdi[name].sel(hdi="higher")), hdi_prob=hdi_prob,
+            hdi_low=json_number(low), hdi_high=json_number(high), hdi_prob=hdi_prob,
             r_hat=json_number(stats[name]["r_hat"]), ess_bulk=json_number(stats[name]["ess_bulk"]),
             ess_tail=json_number(stats[name]["ess_tail"]))
     return out
 
 
-def _at_prior_edge(idata: az.InferenceData, name: str) -> str | None:
+def _at_prior_edge(idata: Fit, name: str) -> str | None:
     """'lower'/'upper' when the posterior is cut off by that end of the prior's support.
 
     The posterior is cut off when the prior's bound lies within two posterior standard
@@ -68,7 +74,7 @@ def _at_prior_edge(idata: az.InferenceData, name: str) -> str | None:
     return None
 
 
-def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
+def diagnostics(idata: Fit, chain: Chain, loo: LooResult | None,
                 settings: Any) -> Diagnostics:
     """Convergence figures of one fit and warnings that say what to do.
 
@@ -125,7 +131,7 @@ def diagnostics(idata: az.InferenceData, chain: Chain, loo: LooResult | None,
         max_r_hat=float(sampler.max_r_hat), warnings=tuple(warnings))
 
 
-def flight_series(idata: az.InferenceData, prob: float = 0.9) -> FlightSeries:
+def flight_series(idata: Fit, prob: float = 0.9) -> FlightSeries:
     """The posterior median and central ``prob`` band of a model's noise-free flight times
     (``posterior_predictive.flight_time_model``)."""
     draws = np.asarray(idata.posterior_predictive["flight_time_model"].values, float)
@@ -134,7 +140,7 @@ def flight_series(idata: az.InferenceData, prob: float = 0.9) -> FlightSeries:
                         high=tuple(map(float, high)), prob=prob)
 
 
-def onset_residuals(idata: az.InferenceData, prob: float = 0.9) -> OnsetResiduals:
+def onset_residuals(idata: Fit, prob: float = 0.9) -> OnsetResiduals:
     """A model's onset residuals and bands (see
     :class:`~drumroll.inference.results.OnsetResiduals`): the posterior predictive check of
     ``residuals.png``."""
@@ -157,7 +163,7 @@ def _floats(values: NDArray) -> tuple[float, ...]:
     return tuple(float(v) for v in values)
 
 
-def observed_flights(idata: az.InferenceData) -> ObservedFlights:
+def observed_flights(idata: Fit) -> ObservedFlights:
     """The observed flight times and their 1σ errors (see
     :class:`~drumroll.inference.results.ObservedFlights`), with the posterior median jitter
     of ``idata``'s model."""

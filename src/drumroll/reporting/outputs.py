@@ -56,7 +56,7 @@ def _summary(result: Any, path: Path, figures: dict[str, Path]) -> Path:
 
 
 def _posterior(result: Any, path: Path, figures: dict[str, Path]) -> None:
-    save_posteriors(result.idatas, result.model, path)
+    save_posteriors(result.draws, result.model, path)
 
 
 def _report(result: Any, path: Path, figures: dict[str, Path]) -> Path:
@@ -99,7 +99,7 @@ def figure_inputs(result: Any, truths: dict[str, float] | None = None) -> Figure
     """What the figures of ``result`` (a :class:`drumroll.pipeline.Result`) are given."""
     audio = result.source if result.source is not None and result.source.suffix.lower() \
         not in ONSET_FILE_SUFFIXES else None
-    return FigureInputs(idatas=result.idatas, summary=result.summary,
+    return FigureInputs(idatas=result.draws, summary=result.summary,
                         truths=_truths_as_sampled(result, truths), audio=audio,
                         onsets=result.onsets if audio is not None else None)
 

@@ -24,6 +24,8 @@ import numpy as np
 if TYPE_CHECKING:
     import arviz as az
 
+    from drumroll.inference.draws import Draws
+
 
 def model_suffix(model: str) -> str:
     """The suffix of ``model``'s groups (``small-angle`` → ``small_angle``)."""
@@ -56,7 +58,7 @@ def _variable_data(values: np.ndarray) -> tuple[np.ndarray, Any]:
 
 def write_groups(path: str | os.PathLike[str], groups: dict[str, Any],
                  attrs: dict[str, Any]) -> None:
-    """Write xarray Datasets as the netCDF-4 groups of one new file (ArviZ's layout).
+    """Write groups as the netCDF-4 groups of one new file (ArviZ's layout).
 
     Parameters
     ----------
@@ -64,7 +66,7 @@ def write_groups(path: str | os.PathLike[str], groups: dict[str, Any],
         The file to create (it is truncated if it exists: callers write into a staging
         folder).
     groups
-        Group name → :class:`xarray.Dataset`.
+        Group name → :class:`xarray.Dataset` or :class:`~drumroll.inference.draws.Group`.
     attrs
         The file's own attributes.
 
@@ -84,7 +86,8 @@ def write_groups(path: str | os.PathLike[str], groups: dict[str, Any],
             group.dimensions = dict(dataset.sizes)
             # Coordinates first, so each dimension's scale exists before the data use it.
             for key in [*dataset.coords, *dataset.data_vars]:
-                variable = dataset[key].variable
+                variable = dataset[key]
+                variable = getattr(variable, "variable", variable)  # an xarray DataArray's
                 data, dtype = _variable_data(np.asarray(variable.values))
                 written = group.create_variable(key, variable.dims, dtype=dtype, data=data)
                 for attr, value in variable.attrs.items():
@@ -95,9 +98,10 @@ def write_groups(path: str | os.PathLike[str], groups: dict[str, Any],
         file.write(image.getbuffer())
 
 
-def save_posteriors(idatas: dict[str, az.InferenceData], main: str,
+def save_posteriors(idatas: dict[str, Draws | az.InferenceData], main: str,
                     path: str | os.PathLike[str]) -> None:
-    """All models' InferenceData in one netCDF file (main model in the standard groups)."""
+    """All models' InferenceData (or :class:`~drumroll.inference.draws.Draws`, which hold
+    the same groups) in one netCDF file (main model in the standard groups)."""
     groups = {}
     for model, idata in idatas.items():
         suffix = "" if model == main else f"_{model_suffix(model)}"
