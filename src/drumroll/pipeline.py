@@ -411,9 +411,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             finish(model, output)
             say(f"{model}: done")
     else:
-        # emcee (and scipy.stats with it) before the workers fork, so that they share it;
-        # the figures' libraries and so on after, while the workers sample.
-        importlib.import_module("emcee")
+        # emcee before the workers fork, so that they share it; the figures' libraries and
+        # so on after, while the workers sample.
+        importlib.import_module("drumroll.inference.ensemble")
         with process_pool(workers) as pool:
             futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                        for m in models}

@@ -124,13 +124,14 @@ def test_the_same_seed_gives_the_same_summary(ball, tmp_path):
 
 def test_the_command_imports_neither_arviz_nor_xarray(ball, tmp_path):
     """Every output (posterior.nc, the figures, the summaries) is made without ArviZ, xarray,
-    pandas and pyplot (0.7 CPU-s to import); the API's ``Result.idatas`` still gives ArviZ
-    InferenceData."""
+    pandas and pyplot (0.7 CPU-s to import), and emcee runs without scipy.stats (0.3 CPU-s);
+    the API's ``Result.idatas`` still gives ArviZ InferenceData."""
     _, _, source, config = ball
     code = ("import sys; from drumroll.cli.main import main; "
             f"status = main(['estimate', {str(source)!r}, '--prior', {str(config)!r}, "
             f"'--out', {str(tmp_path / 'out')!r}, '-q']); "
-            "heavy = [m for m in ('arviz', 'xarray', 'pandas', 'corner', 'matplotlib.pyplot') "
+            "heavy = [m for m in ('arviz', 'xarray', 'pandas', 'corner', 'matplotlib.pyplot', "
+            "'scipy.stats') "
             "if sys.modules.get(m) is not None]; assert status == 0 and not heavy, "
             "(status, heavy)")
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0

@@ -8,15 +8,48 @@ per half-ensemble in array operations. They draw the same random numbers in the 
 (``RandomState.rand(n)`` gives the n numbers of n calls to ``rand()``), so a chain is the
 same, number for number, as with emcee's own classes (tests/unit/inference/test_sampling.py).
 
-Imported only where a sampler runs: emcee imports scipy.stats (a third of a second).
+Imported only where a sampler runs. emcee imports scipy.stats for its KDE move alone, which
+drumroll does not use: a third of a second of CPU in the estimate's start-up, before the
+samplers can start. :func:`import_emcee` imports emcee with scipy.stats held back and gives
+the KDE move scipy's ``gaussian_kde`` when it is first used, so emcee works as before.
 """
 
 from __future__ import annotations
 
-import emcee
+import sys
+from types import ModuleType
+
 import numpy as np
-from emcee.state import State
 from numpy.typing import NDArray
+
+
+def _gaussian_kde(*args, **kwargs):
+    """scipy.stats.gaussian_kde, imported when emcee's KDE move first calls it."""
+    from scipy.stats import gaussian_kde
+
+    return gaussian_kde(*args, **kwargs)
+
+
+def import_emcee() -> ModuleType:
+    """emcee, imported without scipy.stats when neither is loaded yet (see the module
+    docstring): emcee's KDE move imports it in a ``try`` and does without it; its
+    ``gaussian_kde`` is then a function that imports it on first use."""
+    if "emcee" in sys.modules or "scipy.stats" in sys.modules:
+        import emcee
+
+        return emcee
+    sys.modules["scipy.stats"] = None  # type: ignore[assignment]  # import: ImportError
+    try:
+        import emcee
+    finally:
+        del sys.modules["scipy.stats"]
+    if getattr(emcee.moves.kde, "gaussian_kde", _gaussian_kde) is None:
+        emcee.moves.kde.gaussian_kde = _gaussian_kde
+    return emcee
+
+
+emcee = import_emcee()
+from emcee.state import State  # noqa: E402  (after emcee, imported as above)
 
 
 class DEMove(emcee.moves.DEMove):

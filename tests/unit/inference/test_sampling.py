@@ -5,6 +5,8 @@ target."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import arviz as az
 import emcee
@@ -116,6 +118,17 @@ def test_lean_sampler_gives_emcee_s_own_chain():
     np.testing.assert_array_equal(ours.get_chain(), theirs.get_chain())
     np.testing.assert_array_equal(ours.get_log_prob(), theirs.get_log_prob())
     np.testing.assert_array_equal(ours.acceptance_fraction, theirs.acceptance_fraction)
+
+
+def test_emcee_imported_without_scipy_stats_keeps_its_kde_move():
+    """drumroll imports emcee with scipy.stats held back (its KDE move alone wants it); the
+    KDE move still works, importing scipy.stats when it is first used."""
+    code = ("import sys, numpy as np; from drumroll.inference.ensemble import emcee; "
+            "assert 'scipy.stats' not in sys.modules; "
+            "s = emcee.EnsembleSampler(16, 2, lambda x: -0.5 * np.sum(x**2), "
+            "moves=emcee.moves.KDEMove()); s.run_mcmc(np.random.randn(16, 2), 10); "
+            "assert 'scipy.stats' in sys.modules")
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 
 
 POWERLAW = {"model": "powerlaw",
