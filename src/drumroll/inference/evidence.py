@@ -293,9 +293,17 @@ def importance_evidence(log_posterior: LogPosterior | Callable[[NDArray], NDArra
             w = np.where(from_defence[:, None], defensive_inflate * u,
                          kernels[rng.integers(n_kernels, size=size)] + width * u)
             norms = np.einsum("ij,ij->i", w, w)
-            distance = np.maximum(norms[:, None] - 2.0 * w @ kernels.T + squared_norms, 0.0)
-            log_kernel = special.logsumexp(
-                -0.5 * (nu + ndim) * np.log1p(distance / (nu * width**2)), axis=1)
+            # log of each kernel's density at each draw, (size, kernels), in place: the
+            # largest arrays of the estimate, and its time.
+            terms = w @ kernels.T
+            terms *= -2.0
+            terms += norms[:, None]
+            terms += squared_norms
+            np.maximum(terms, 0.0, out=terms)
+            terms *= 1.0 / (nu * width**2)
+            np.log1p(terms, out=terms)
+            terms *= -0.5 * (nu + ndim)
+            log_kernel = _logsumexp_rows(terms)
             log_wide = -0.5 * (nu + ndim) * np.log1p(norms / (nu * defensive_inflate**2))
             log_q = (log_t - log_jacobian
                      + np.logaddexp(log_shares[0] + log_kernel, log_shares[1] + log_wide))
@@ -320,6 +328,16 @@ def importance_evidence(log_posterior: LogPosterior | Callable[[NDArray], NDArra
     log_z_err = float(np.std(w) * math.sqrt(w.size) / total)  # sd(w) / (mean(w) sqrt(S))
     return Evidence(log_z=float(log_z), log_z_err=log_z_err, n_calls=int(w.size),
                     ess=float(total**2 / np.sum(w * w)), method="importance", pareto_k=k)
+
+
+def _logsumexp_rows(terms: NDArray) -> NDArray:
+    """log Σ exp along each row of finite ``terms`` (overwritten): scipy's ``logsumexp``
+    without its checks for infinities, complex numbers and array backends, which took as long
+    as the sum itself."""
+    top = terms.max(axis=1)
+    terms -= top[:, None]
+    np.exp(terms, out=terms)
+    return np.log(terms.sum(axis=1)) + top
 
 
 def choose_evidence(log_posterior: LogPosterior, posterior_samples: NDArray,
