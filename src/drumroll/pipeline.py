@@ -149,6 +149,49 @@ class Result:
         return self.summary.parameters[name]
 
 
+@dataclass(frozen=True)
+class MainFit:
+    """The main model's fit as soon as it is known, before the other models are (see
+    :class:`EstimateListener`).
+
+    Attributes
+    ----------
+    model
+        The main model.
+    draws
+        Its draws as stored and drawn: thinned to at most :data:`MAX_DRAWS`.
+    parameters
+        The summaries of its posterior variables, computed on every draw (those of
+        ``summary.json``).
+    max_r_hat
+        The R-hat target (``[sampler] max_r_hat``).
+    log_posterior
+        Its posterior (the noise model the figures' true values are drawn in).
+    """
+
+    model: str
+    draws: Draws
+    parameters: dict[str, ParameterSummary]
+    max_r_hat: float
+    log_posterior: LogPosterior
+
+
+class EstimateListener:
+    """What :func:`estimate` tells a caller as its results appear, so that outputs can be
+    made while the rest is still being computed (the command line draws figures while the
+    other models are sampled). Each hook does nothing here; a subclass overrides what it needs.
+    The hooks run in the estimate's process; an exception they raise ends the estimate.
+    """
+
+    def sampling(self, onsets: OnsetTable, recording: Path | AudioSource | None) -> None:
+        """Called once while the models are sampled in worker processes (or, with one
+        process, after the first model): the fitted roll's onsets and the recording they came
+        from (None for an onset file)."""
+
+    def main_fit(self, fit: MainFit) -> None:
+        """Called once the main model's draws and their summaries are known."""
+
+
 def load_onsets(source: str | os.PathLike[str] | OnsetTable, **options: Any) -> OnsetTable:
     """Onsets from an onset file (CSV, Audacity labels, plain text) or by detection in audio."""
     if isinstance(source, OnsetTable):
@@ -297,18 +340,32 @@ def thin_draws(draws: Draws, max_draws: int) -> Draws:
     return thinned
 
 
+def _summarised(draws: Draws, hdi_prob: float) -> dict[str, ParameterSummary]:
+    """The summaries of every posterior variable of ``draws`` (on every draw), also written
+    into the variables' attributes: every draw's R-hat and ESS travel with the variables to
+    the readers of posterior.nc, whose draws are thinned."""
+    from drumroll.inference.summary import parameter_summary
+
+    stats = parameter_summary(draws, hdi_prob)
+    for name, values in draws.posterior.data_vars.items():
+        values.attrs.update({key: getattr(stats[name], key) for key in (
+            "r_hat", "ess_bulk", "ess_tail") if getattr(stats[name], key) is not None})
+    return stats
+
+
 def model_seed(base: int, index: int) -> int:
     """An independent, reproducible seed for the ``index``-th model of a run."""
     return int(np.random.SeedSequence([base, index]).generate_state(1)[0])
 
 
-def _while_sampling(meanwhile: Callable[[], object] | None) -> None:
+def _while_sampling(listener: EstimateListener | None, onsets: OnsetTable,
+                    recording: Path | AudioSource | None) -> None:
     """What this process does while the workers sample: import what the rest of
-    :func:`estimate` needs, then the caller's ``meanwhile``."""
+    :func:`estimate` needs, then tell the ``listener``."""
     importlib.import_module("drumroll.inference.comparison")
     importlib.import_module("drumroll.inference.summary")
-    if meanwhile is not None:
-        meanwhile()
+    if listener is not None:
+        listener.sampling(onsets, recording)
 
 
 def _release_notes(space) -> list[str]:
@@ -328,7 +385,7 @@ def _release_notes(space) -> list[str]:
 
 def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str | os.PathLike[str],
              *, roll: int | None = None, progress: Progress | None = None,
-             meanwhile: Callable[[], object] | None = None, **onset_options: Any) -> Result:
+             listener: EstimateListener | None = None, **onset_options: Any) -> Result:
     """Posteriors of every model in the config, and their comparison.
 
     Parameters
@@ -344,9 +401,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         (see :func:`choose_roll`).
     progress
         Called with a line of text at each stage (the command line prints it on stderr).
-    meanwhile
-        Called once in this process while the models are sampled in worker processes (the
-        command line imports its figures' libraries there).
+    listener
+        Told of results as they appear (:class:`EstimateListener`: the command line starts
+        drawing figures while models are still sampled).
     onset_options
         Passed to :func:`drumroll.onsets.detect` when ``source`` is audio (``stream=N``: which
         audio stream of the file).
@@ -372,6 +429,10 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                             f"{MIN_ONSETS} are needed to estimate anything")
     say(f"{len(onsets)} onsets{of_roll}, from {onsets.time_s[0]:.4f} s to "
         f"{onsets.time_s[-1]:.4f} s")
+    recording = None if isinstance(source, OnsetTable) else Path(source)
+    if recording is not None and onset_options.get("stream") is not None:
+        # The onset figure reads the audio stream the onsets came from.
+        recording = AudioSource(recording, onset_options["stream"])
 
     models = config.models
     workers = max(1, min(settings.workers, len(models)))
@@ -386,6 +447,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                   for m in models}
     fits: dict[str, ModelFit] = {}
     loos: dict[str, LooResult] = {}
+    stored: dict[str, Draws] = {}  # the main model's draws as stored, once summarised
     post_seconds = 0.0
 
     def finish(model: str, output: tuple) -> None:
@@ -401,13 +463,21 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         draws = build_draws(log_posterior, chain, np.random.default_rng(seeds[model]))
         fits[model] = ModelFit(model, log_posterior, chain, draws, evidence, check, fit_seconds)
         loos[model] = loo(draws)
+        if model == config.model:
+            # The main model's summaries and stored draws now, not after the other models:
+            # its figures can then be drawn while those are sampled.
+            fits[model].stats = _summarised(draws, settings.hdi_prob)
+            stored[model] = thin_draws(draws, MAX_DRAWS)
+            if listener is not None:
+                listener.main_fit(MainFit(model, stored[model], fits[model].stats,
+                                          settings.sampler.max_r_hat, log_posterior))
         post_seconds += time.perf_counter() - begun
 
     if workers == 1:
         for model in models:
             output = _fit(posteriors[model], settings, seeds[model])
             if not fits:
-                _while_sampling(meanwhile)
+                _while_sampling(listener, onsets, recording)
             finish(model, output)
             say(f"{model}: done")
     else:
@@ -417,7 +487,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         with process_pool(workers) as pool:
             futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                        for m in models}
-            _while_sampling(meanwhile)
+            _while_sampling(listener, onsets, recording)
             for future in as_completed(futures):
                 finish(futures[future], future.result())
                 say(f"{futures[future]}: done")
@@ -431,7 +501,6 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         flight_series,
         observed_flights,
         onset_residuals,
-        parameter_summary,
     )
 
     started = time.perf_counter()
@@ -451,7 +520,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
-    parameters = parameter_summary(main.draws, settings.hdi_prob)
+    parameters = main.stats  # summarised (on every draw) when its fit came back
     model_diagnostics = {m: diagnostics(f.draws, f.chain, loos[m], settings)
                          for m, f in fits.items()}
     evidence_entries = {}
@@ -470,19 +539,13 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     models_summary: dict[str, ModelSummary] = {}
     observed = observed_flights(main.draws)
     for model, fit in fits.items():
-        # Every draw's R-hat and ESS travel with the variables (for posterior.nc's readers),
-        # since the stored posterior is thinned below.
-        stats = parameters if model == config.model else parameter_summary(fit.draws,
-                                                                            settings.hdi_prob)
+        stats = parameters if model == config.model else _summarised(fit.draws,
+                                                                     settings.hdi_prob)
         fit.stats = stats
         models_summary[model] = ModelSummary(
             parameters=stats, flights=flight_series(fit.draws, settings.hdi_prob),
             residuals=onset_residuals(fit.draws, settings.hdi_prob), adequacy=adequacies[model])
-        for name, values in fit.draws.posterior.data_vars.items():
-            # For the readers of posterior.nc, whose draws are thinned below.
-            values.attrs.update({key: getattr(stats[name], key) for key in (
-                "r_hat", "ess_bulk", "ess_tail") if getattr(stats[name], key) is not None})
-        fit.draws = thin_draws(fit.draws, MAX_DRAWS)
+        fit.draws = stored[model] if model in stored else thin_draws(fit.draws, MAX_DRAWS)
     summary = Summary(
         model=config.model, n_onsets=len(onsets), roll=fitted.roll, n_rolls=len(fitted.sizes),
         missing_bounces=tuple(data.missing),
@@ -499,9 +562,5 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         version=__version__,
         seconds={**seconds, **{f"{m}_{k}": v for m, f in fits.items()
                                for k, v in f.seconds.items()}})
-    recording = None if isinstance(source, OnsetTable) else Path(source)
-    if recording is not None and onset_options.get("stream") is not None:
-        # The onset figure reads the audio stream the onsets came from.
-        recording = AudioSource(recording, onset_options["stream"])
     return Result(summary=summary, fits=fits, onsets=onsets, config=config,
                   source=recording, seconds=seconds, loos=loos)

@@ -20,6 +20,10 @@ import signal
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 
+#: Pools open now: the heap is frozen while any is (the estimate opens its figure workers'
+#: pool while its samplers' is open, and closes it after).
+_open_pools = 0
+
 
 def _ignore_interrupt() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -34,25 +38,30 @@ def process_pool(max_workers: int) -> Iterator[ProcessPoolExecutor]:
 
     The objects that exist when it opens are frozen out of the garbage collector until it
     closes (module docstring): in the workers, forked with them, and in this process, whose
-    own collections need not traverse them either while it waits. They are unfrozen after,
-    so that nothing of a long-lived process (a notebook's) stays out of reach of the
-    collector. In the estimate this saved ~1 CPU-s of collections (four figure workers' and
+    own collections need not traverse them either while it waits. They are unfrozen once no
+    pool is open, so that nothing of a long-lived process (a notebook's) stays out of reach
+    of the collector. In the estimate this saved ~1 CPU-s of collections (four figure workers' and
     the main process's full collections, 0.1 s each).
     """
+    global _open_pools
     gc.freeze()
+    _open_pools += 1
     try:
         pool = ProcessPoolExecutor(max_workers=max_workers, initializer=_ignore_interrupt)
         try:
             yield pool
         except BaseException:
             # Cancel what has not started and end what has: the run is abandoned.
-            pool.shutdown(wait=False, cancel_futures=True)
+            # The workers, taken before shutdown() forgets them (it sets _processes to None).
             processes = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
             for process in processes:
                 process.terminate()
-            for process in processes:  # gone before the caller removes what they write
+            for process in processes:  # gone before the caller cleans up what they wrote
                 process.join(timeout=5)
             raise
         pool.shutdown(wait=True)
     finally:
-        gc.unfreeze()
+        _open_pools -= 1
+        if not _open_pools:
+            gc.unfreeze()

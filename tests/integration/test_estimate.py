@@ -122,6 +122,22 @@ def test_the_same_seed_gives_the_same_summary(ball, tmp_path):
     assert first == second
 
 
+def test_figures_drawn_while_estimating_equal_those_drawn_after(ball, tmp_path):
+    """With two processes the corner and trace plots are drawn as soon as the main model is
+    back, while the estimate goes on (reporting.outputs.FigureDrawer); the outputs are those
+    of one process, which draws everything at the end: the same files, the same pixels."""
+    from PIL import Image
+
+    _, out, source, config = ball  # one process ([sampler] workers = 1)
+    two = tmp_path / "two"
+    assert main(["estimate", str(source), "--prior", str(config), "--out", str(two), "-q",
+                 "--workers", "2"]) == 0
+    assert sorted(p.name for p in two.iterdir()) == sorted(p.name for p in out.iterdir())
+    for name in ("corner.png", "trace.png", "bounce_series.png", "residuals.png"):
+        np.testing.assert_array_equal(np.asarray(Image.open(two / name)),
+                                      np.asarray(Image.open(out / name)), err_msg=name)
+
+
 def test_the_command_imports_neither_arviz_nor_xarray(ball, tmp_path):
     """Every output (posterior.nc, the figures, the summaries) is made without ArviZ, xarray,
     pandas and pyplot (0.7 CPU-s to import), and emcee runs without scipy.stats (0.3 CPU-s);

@@ -25,13 +25,28 @@ def test_workers_ignore_ctrl_c():
 
 
 def test_an_interrupt_stops_running_workers_without_waiting_for_them():
+    """The workers are ended, and gone, when the pool's block is left: nothing of theirs
+    (a figure being saved) lands after the caller has cleaned up."""
     started = time.perf_counter()
     with pytest.raises(KeyboardInterrupt), process_pool(2) as pool:
         for _ in range(3):
             pool.submit(time.sleep, 60)
         time.sleep(0.5)
+        workers = list(pool._processes.values())
         raise KeyboardInterrupt
     assert time.perf_counter() - started < 15
+    assert len(workers) == 2 and not any(w.is_alive() for w in workers)
+
+
+def test_pools_nest_and_the_heap_stays_frozen_while_any_is_open():
+    import gc
+
+    with process_pool(1):
+        inner = process_pool(1)
+        inner.__enter__()
+    assert gc.get_freeze_count() > 0  # the outer pool closed first, the inner is open
+    inner.__exit__(None, None, None)
+    assert gc.get_freeze_count() == 0
 
 
 SPY = """
@@ -65,3 +80,4 @@ def test_every_command_runs_blas_on_one_thread_per_process(entry):
     assert "numpy not loaded" in lines
     assert "numpy loaded" not in lines
     assert "threads 1" in lines
+

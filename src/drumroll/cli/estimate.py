@@ -91,11 +91,15 @@ def _apply_overrides(config, args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     """Run ``estimate``: check inputs and outputs first, then sample, then write."""
     # Imported here: the samplers take a second to import, which other commands (and
-    # ``--help``) should not pay; ArviZ and the figures' libraries are imported while the
-    # models are sampled (``meanwhile``).
+    # ``--help``) should not pay; the figures' libraries are imported while the models are
+    # sampled (by the FigureDrawer, which starts drawing then).
     from drumroll.pipeline import estimate
-    from drumroll.reporting.figures import load_figure_libraries
-    from drumroll.reporting.outputs import check_outputs, output_files, write_outputs
+    from drumroll.reporting.outputs import (
+        FigureDrawer,
+        check_outputs,
+        output_files,
+        write_outputs,
+    )
 
     source = Path(args.source)
     if not source.exists():
@@ -114,12 +118,14 @@ def run(args: argparse.Namespace) -> int:
     onset_options = {} if args.stream is None else {"stream": args.stream}
     check_outputs(out_dir, output_files(include_onsets_figure=is_audio), overwrite=args.force)
     progress = Progress(quiet=args.quiet)
-    with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
-        result = estimate(source, config, roll=args.roll, progress=progress.say,
-                          meanwhile=load_figure_libraries, **onset_options)
-    with progress.stage(f"writing {out_dir}"):
-        write_outputs(result, out_dir, overwrite=args.force, truths=truths,
-                      workers=args.workers)
+    # Figures are drawn as soon as their inputs exist, while the estimate goes on.
+    with FigureDrawer(out_dir, truths=truths, workers=args.workers) as drawer:
+        with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
+            result = estimate(source, config, roll=args.roll, progress=progress.say,
+                              listener=drawer, **onset_options)
+        with progress.stage(f"writing {out_dir}"):
+            write_outputs(result, out_dir, overwrite=args.force, truths=truths,
+                          workers=args.workers, drawer=drawer)
     print(terminal_table(result))
     print(f"\nresults in {out_dir}/ (report.md, summary.json, posterior.nc, figures)")
     return 0

@@ -1,4 +1,5 @@
-"""Writing an estimate to disk: its registered files, atomically, figures drawn side by side.
+"""Writing an estimate to disk: its registered files, atomically, figures drawn side by side
+(and, with a :class:`FigureDrawer` listening to the estimate, while it is still running).
 
 An estimate's outputs are the data files of :data:`DATA_FILES` (``summary.json``,
 ``posterior.nc``, ``report.md``) and the figures of
@@ -22,22 +23,30 @@ import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterable
+from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
+from drumroll.inference.results import Diagnostics, Summary
 from drumroll.interruption import raise_if_interrupted
 from drumroll.onsets import ONSET_FILE_SUFFIXES
-from drumroll.reporting.figures import DRAW_SECONDS, FIGURES, FigureInputs, figure_files
+from drumroll.reporting.figures import (
+    DRAW_SECONDS,
+    FIGURES,
+    FigureInputs,
+    figure_files,
+    load_figure_libraries,
+)
 from drumroll.reporting.plot_style import missing_glyphs_said_once
 from drumroll.reporting.posterior_file import load_posteriors, save_posteriors
 from drumroll.reporting.report import write_report
 from drumroll.workers import process_pool
 
-__all__ = ["DATA_FILES", "DataFile", "check_outputs", "load_posteriors", "output_files",
-           "save_posteriors", "write_outputs"]
+__all__ = ["DATA_FILES", "DataFile", "FigureDrawer", "check_outputs", "load_posteriors",
+           "output_files", "save_posteriors", "write_outputs"]
 
 
 @dataclass(frozen=True)
@@ -97,21 +106,29 @@ def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
 
 def figure_inputs(result: Any, truths: dict[str, float] | None = None) -> FigureInputs:
     """What the figures of ``result`` (a :class:`drumroll.pipeline.Result`) are given."""
-    audio = result.source if result.source is not None and result.source.suffix.lower() \
-        not in ONSET_FILE_SUFFIXES else None
+    audio = _audio(result.source)
+    fit = result.fits.get(result.summary.model)
     return FigureInputs(idatas=result.draws, summary=result.summary,
-                        truths=_truths_as_sampled(result, truths), audio=audio,
-                        onsets=result.onsets if audio is not None else None)
+                        truths=_truths_as_sampled(fit.log_posterior if fit else None, truths),
+                        audio=audio, onsets=result.onsets if audio is not None else None)
 
 
-def _truths_as_sampled(result: Any, truths: dict[str, float] | None) -> dict[str, float] | None:
-    """``truths`` in the quantities the figures draw: a true jitter is the noise's sd, which
-    under Student-t noise with a fixed ν is the sampled scale σ times √(ν / (ν − 2)); with ν
-    sampled there is no one scale to mark, so none is drawn."""
-    fit = result.fits.get(result.summary.model) if truths else None
-    if fit is None or fit.log_posterior.noise != "student-t" or "jitter_ms" not in truths:
+def _audio(source: Any) -> Any:
+    """The recording of an estimate's source (None when the onsets came from a file)."""
+    return source if source is not None and source.suffix.lower() not in ONSET_FILE_SUFFIXES \
+        else None
+
+
+def _truths_as_sampled(log_posterior: Any, truths: dict[str, float] | None
+                       ) -> dict[str, float] | None:
+    """``truths`` in the quantities the figures draw of the main model (``log_posterior``): a
+    true jitter is the noise's sd, which under Student-t noise with a fixed ν is the sampled
+    scale σ times √(ν / (ν − 2)); with ν sampled there is no one scale to mark, so none is
+    drawn."""
+    if not truths or log_posterior is None or log_posterior.noise != "student-t" \
+            or "jitter_ms" not in truths:
         return truths
-    nu = fit.log_posterior.space.priors["nu"]
+    nu = log_posterior.space.priors["nu"]
     out = dict(truths)
     if nu.is_fixed and nu.value > 2:
         out["jitter_ms"] = truths["jitter_ms"] * math.sqrt((nu.value - 2) / nu.value)
@@ -138,13 +155,103 @@ def _draw_figure(key: str, inputs: FigureInputs, path: Path) -> Path:
             gc.enable()
 
 
+class FigureDrawer:
+    """Draws an estimate's figures in worker processes as soon as each one's inputs exist.
+
+    Given to :func:`drumroll.pipeline.estimate` as its listener
+    (:class:`~drumroll.pipeline.EstimateListener`'s hooks), it starts the recording's
+    ``onsets.png`` while the models are being sampled, and ``corner.png`` and ``trace.png``
+    once the main model's fit is back, while the other models are still sampled; given to
+    :func:`write_outputs`, it draws the rest in the same workers, and ``write_outputs`` moves
+    them all into place. Cores that would wait (for the last model, for the comparison) draw
+    instead. The figures are drawn into a staging folder inside the output folder, as
+    ``write_outputs`` draws them; use it as a context manager: on leaving it the workers end
+    (at once, on an exception) and whatever ``write_outputs`` has not taken over is removed.
+    With one worker it does nothing, and ``write_outputs`` draws every figure at the end.
+
+    Parameters
+    ----------
+    out_dir
+        The output folder (checked beforehand: :func:`check_outputs`).
+    truths
+        Known values for the corner plot (simulations).
+    workers
+        Figure processes (default: one per core).
+    """
+
+    def __init__(self, out_dir: str | os.PathLike[str], *,
+                 truths: dict[str, float] | None = None, workers: int | None = None) -> None:
+        self.out_dir = Path(out_dir)
+        self.truths = truths
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        #: Figure key → the drawing under way (its result is the path drawn).
+        self.futures: dict[str, Future] = {}
+        self.staging: Path | None = None
+        self.created = False
+        #: Set by write_outputs once the outputs are in place.
+        self.finished = False
+        self.pool: Any = None
+        self._stack = contextlib.ExitStack()
+
+    def __enter__(self) -> FigureDrawer:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        try:
+            self._stack.__exit__(*exc)
+        finally:
+            # After the workers ended: none of them writes into the staging folder any more.
+            if self.staging is not None and not self.finished:
+                shutil.rmtree(self.staging, ignore_errors=True)
+                if self.created:
+                    with contextlib.suppress(OSError):
+                        self.out_dir.rmdir()
+
+    def _submit(self, key: str, inputs: FigureInputs) -> None:
+        if self.workers < 2:
+            return
+        if self.pool is None:
+            load_figure_libraries()  # before the workers fork: they share it
+            self.created = not self.out_dir.exists()
+            try:
+                self.out_dir.mkdir(exist_ok=True)
+                self.staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=self.out_dir))
+            except OSError as exc:
+                if fileio.no_space(exc):
+                    raise fileio.no_space_error(self.out_dir, exc) from None
+                raise
+            self.pool = self._stack.enter_context(process_pool(self.workers))
+        self.futures[key] = self.pool.submit(_draw_figure, key, inputs,
+                                             self.staging / FIGURES[key].file)
+
+    def sampling(self, onsets: Any, recording: Any) -> None:
+        """The estimate's hook while the models are sampled: draw the recording's onsets."""
+        audio = _audio(recording)
+        if audio is not None:
+            self._submit("onsets", FigureInputs(idatas={}, summary=Summary(), audio=audio,
+                                                onsets=onsets))
+        elif self.workers > 1:
+            load_figure_libraries()  # for the figures to come, while this process waits
+
+    def main_fit(self, fit: Any) -> None:
+        """The estimate's hook for the main model's fit (a :class:`~drumroll.pipeline.MainFit`):
+        draw its corner and trace plots."""
+        summary = Summary(model=fit.model, parameters=fit.parameters,
+                          diagnostics={fit.model: Diagnostics(max_r_hat=fit.max_r_hat)})
+        inputs = FigureInputs(idatas={fit.model: fit.draws}, summary=summary,
+                              truths=_truths_as_sampled(fit.log_posterior, self.truths))
+        for key in ("corner", "trace"):
+            self._submit(key, inputs)
+
+
 def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bool = False,
-                  truths: dict[str, float] | None = None, workers: int | None = None
-                  ) -> dict[str, Path]:
+                  truths: dict[str, float] | None = None, workers: int | None = None,
+                  drawer: FigureDrawer | None = None) -> dict[str, Path]:
     """Write every output of ``result`` (a :class:`drumroll.pipeline.Result`) into ``out_dir``.
 
     The figures are drawn by ``workers`` processes (default: one per core) while this one
-    writes ``summary.json`` and ``posterior.nc``.
+    writes ``summary.json`` and ``posterior.nc``; with a ``drawer`` that listened to the
+    estimate, by its workers, and those it already drew or is drawing are not drawn again.
 
     Returns
     -------
@@ -156,31 +263,37 @@ def write_outputs(result: Any, out_dir: str | os.PathLike[str], *, overwrite: bo
     figures = figure_files(inputs)
     names = [*(d.file for d in DATA_FILES.values()), *figures.values()]
     out_dir = check_outputs(out_dir, names, overwrite=overwrite)
-    created = not out_dir.exists()
-    staging: Path | None = None
+    early = drawer is not None and drawer.staging is not None
+    created = drawer.created if early else not out_dir.exists()
+    staging: Path | None = drawer.staging if early else None
     finished = False
     try:
-        try:
-            out_dir.mkdir(exist_ok=True)
-            staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
-        except OSError as exc:
-            if fileio.no_space(exc):
-                raise fileio.no_space_error(out_dir, exc) from None
-            raise
+        if not early:
+            try:
+                out_dir.mkdir(exist_ok=True)
+                staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out_dir))
+            except OSError as exc:
+                if fileio.no_space(exc):
+                    raise fileio.no_space_error(out_dir, exc) from None
+                raise
         written = _write_staged(result, inputs, figures, staging, out_dir, overwrite=overwrite,
-                                workers=workers)
+                                workers=workers, drawer=drawer if early else None)
         finished = True
+        if early:
+            drawer.finished = True
         return written
     except fileio.NoSpace as exc:  # named by its final path, not the staging folder's
         if staging is None:
             raise
         raise exc.moved(staging, out_dir) from None
     finally:
+        # On a failure with a drawer, the drawer cleans up once its workers have ended.
         with contextlib.suppress(OSError):
-            if staging is not None:
-                shutil.rmtree(staging)
-            if created and not finished:
-                out_dir.rmdir()  # only if still empty: a folder we made and filled with nothing
+            if finished or not early:
+                if staging is not None:
+                    shutil.rmtree(staging)
+                if created and not finished:
+                    out_dir.rmdir()  # only if still empty: a folder we made and left empty
 
 
 def _write_data(data: DataFile, result: Any, path: Path, figures: dict[str, Path]) -> None:
@@ -194,8 +307,10 @@ def _write_data(data: DataFile, result: Any, path: Path, figures: dict[str, Path
 
 
 def _write_staged(result: Any, inputs: FigureInputs, figures: dict[str, str], staging: Path,
-                  out_dir: Path, *, overwrite: bool, workers: int | None) -> dict[str, Path]:
-    """Write every output into ``staging``, then move each into ``out_dir``.
+                  out_dir: Path, *, overwrite: bool, workers: int | None,
+                  drawer: FigureDrawer | None = None) -> dict[str, Path]:
+    """Write every output into ``staging``, then move each into ``out_dir`` (the figures a
+    ``drawer`` drew or is drawing there are taken as they are).
 
     Raises
     ------
@@ -206,9 +321,14 @@ def _write_staged(result: Any, inputs: FigureInputs, figures: dict[str, str], st
     workers = max(1, min(workers or os.cpu_count() or 1, len(order)))
     drawn: dict[str, Path] = {}
     with contextlib.ExitStack() as stack:
-        pool = stack.enter_context(process_pool(workers)) if workers > 1 else None
-        futures = {key: pool.submit(_draw_figure, key, inputs, staging / figures[key])
-                   for key in order} if pool is not None else {}
+        if drawer is not None:
+            pool, futures = drawer.pool, dict(drawer.futures)
+        else:
+            pool = stack.enter_context(process_pool(workers)) if workers > 1 else None
+            futures = {}
+        if pool is not None:
+            futures.update({key: pool.submit(_draw_figure, key, inputs, staging / figures[key])
+                            for key in order if key not in futures})
         for data in list(DATA_FILES.values())[:-1]:
             _write_data(data, result, staging / data.file, {})
         for key in order:
