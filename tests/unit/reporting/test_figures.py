@@ -269,3 +269,25 @@ def test_figures_leave_no_pyplot_state(written):
     assert plt.get_fignums() == []
     assert os.environ.get("MPLBACKEND", "agg").lower() in {"agg", "module://matplotlib_inline"
                                                             ".backend_inline"}
+
+
+@pytest.mark.parametrize("key", ["trace", "corner"])
+def test_one_draw_png_is_savefig_s_file(idatas, inputs, tmp_path, key):
+    """plot_style.write_png draws once what savefig draws twice (layout, then render) for a
+    figure with a layout engine: the file is the same, byte for byte."""
+    from drumroll.reporting.corner_plot import draw_corner
+    from drumroll.reporting.trace_plot import draw_trace
+
+    def draw():
+        with plot_style.style():
+            if key == "corner":
+                return draw_corner(idatas["pendulum"])
+            return draw_trace(idatas["pendulum"], inputs.summary.parameters)
+
+    ours, theirs = tmp_path / "ours.png", tmp_path / "theirs.png"
+    with plot_style.style():
+        plot_style.write_png(draw(), ours, dpi=plot_style.DPI, facecolor="white",
+                             pil_kwargs={"compress_level": 1})
+        draw().savefig(theirs, dpi=plot_style.DPI, format="png", facecolor="white",
+                       pil_kwargs={"compress_level": 1})
+    assert ours.read_bytes() == theirs.read_bytes()
