@@ -37,8 +37,11 @@ from drumroll.inference.inference_data import build_draws, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.results import (
+    Adequacy,
+    Diagnostics,
     EvidenceSummary,
     ModelSummary,
+    ObservedFlights,
     Onset,
     ParameterSummary,
     Summary,
@@ -447,30 +450,53 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                   for m in models}
     fits: dict[str, ModelFit] = {}
     loos: dict[str, LooResult] = {}
-    stored: dict[str, Draws] = {}  # the main model's draws as stored, once summarised
+    checked: dict[str, Adequacy] = {}
+    base_diagnostics: dict[str, Diagnostics] = {}
+    summaries: dict[str, ModelSummary] = {}
+    observed: dict[str, ObservedFlights] = {}  # the main model's
+    every_draw: dict[str, Draws] = {}
     post_seconds = 0.0
 
     def finish(model: str, output: tuple) -> None:
-        """A model's draws (InferenceData's groups) and PSIS-LOO, as soon as its fit is back
-        (this process is otherwise idle while the others sample)."""
+        """Everything of a model that needs no other model (its draws, PSIS-LOO, adequacy,
+        summaries and diagnostics on every draw, and the thinned draws that are stored), as
+        soon as its fit is back: this process is otherwise idle while the others sample, and
+        only the comparison is left when the last one is back."""
         nonlocal post_seconds
+        from drumroll.inference.adequacy import adequacy
         from drumroll.inference.comparison import loo
+        from drumroll.inference.summary import (
+            diagnostics,
+            flight_series,
+            observed_flights,
+            onset_residuals,
+        )
 
         begun = time.perf_counter()
         chain, evidence, check, fit_seconds = output
         log_posterior = posteriors[model]
         # The same generator as reported_draws: the stopping check saw these very numbers.
         draws = build_draws(log_posterior, chain, np.random.default_rng(seeds[model]))
-        fits[model] = ModelFit(model, log_posterior, chain, draws, evidence, check, fit_seconds)
+        fit = fits[model] = ModelFit(model, log_posterior, chain, draws, evidence, check,
+                                     fit_seconds)
         loos[model] = loo(draws)
+        checked[model] = adequacy(draws)  # on every draw
+        fit.stats = _summarised(draws, settings.hdi_prob)
+        base_diagnostics[model] = diagnostics(draws, chain, loos[model], settings)
+        summaries[model] = ModelSummary(
+            parameters=fit.stats, flights=flight_series(draws, settings.hdi_prob),
+            residuals=onset_residuals(draws, settings.hdi_prob), adequacy=checked[model])
         if model == config.model:
-            # The main model's summaries and stored draws now, not after the other models:
-            # its figures can then be drawn while those are sampled.
-            fits[model].stats = _summarised(draws, settings.hdi_prob)
-            stored[model] = thin_draws(draws, MAX_DRAWS)
-            if listener is not None:
-                listener.main_fit(MainFit(model, stored[model], fits[model].stats,
-                                          settings.sampler.max_r_hat, log_posterior))
+            observed[model] = observed_flights(draws)
+        # Diagnostics and summaries above use every draw, as do the comparison's prior
+        # sensitivity and model average (every_draw, until then); what is stored and drawn is
+        # thinned.
+        every_draw[model] = draws
+        fit.draws = thin_draws(draws, MAX_DRAWS)
+        if model == config.model and listener is not None:
+            # Its figures can be drawn while the other models are sampled.
+            listener.main_fit(MainFit(model, fit.draws, fit.stats, settings.sampler.max_r_hat,
+                                      log_posterior))
         post_seconds += time.perf_counter() - begun
 
     if workers == 1:
@@ -494,63 +520,44 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
-    from drumroll.inference.adequacy import adequacy
     from drumroll.inference.comparison import compare_models
-    from drumroll.inference.summary import (
-        diagnostics,
-        flight_series,
-        observed_flights,
-        onset_residuals,
-    )
 
     started = time.perf_counter()
-    adequacies = {m: adequacy(f.draws) for m, f in fits.items()}  # on every draw
     evidences = {m: f.evidence for m, f in fits.items() if f.evidence is not None}
     rows, preferred, verdict, loos = compare_models(
-        {m: f.draws for m, f in fits.items()}, config.model, evidences, loos,
-        inadequate=[m for m, a in adequacies.items() if a.adequate is False],
+        {m: every_draw[m] for m in models}, config.model, evidences, loos,
+        inadequate=[m for m, a in checked.items() if a.adequate is False],
         priors={m: f.log_posterior.space.priors for m, f in fits.items()})
     averaged = None
     if len(fits) > 1:  # one α for a table: the models stacked by their LOO predictions
         from drumroll.inference.model_average import model_average, stacking_weights
 
         weights = stacking_weights({m: loos[m].pointwise for m in fits})
-        averaged = model_average({m: f.draws.posterior for m, f in fits.items()}, weights,
+        averaged = model_average({m: d.posterior for m, d in every_draw.items()}, weights,
                                  settings.hdi_prob, seed=settings.sampler.seed)
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
-    # Diagnostics and summaries above use every draw; only what is stored and drawn is thinned.
-    parameters = main.stats  # summarised (on every draw) when its fit came back
-    model_diagnostics = {m: diagnostics(f.draws, f.chain, loos[m], settings)
-                         for m, f in fits.items()}
+    parameters = main.stats
+    model_diagnostics = {}
     evidence_entries = {}
     for m, fit in fits.items():
+        model_diagnostics[m] = base_diagnostics[m]
         if fit.evidence is not None:
             evidence_entries[m], warning = evidence_summary(fit.evidence, fit.evidence_check)
             if warning:
                 model_diagnostics[m] = replace(
                     model_diagnostics[m],
                     warnings=(*model_diagnostics[m].warnings, f"{m}: {warning}"))
-    for m, checked in adequacies.items():
-        misfit = checked.misfit(m)
+        misfit = checked[m].misfit(m)
         if misfit:
             model_diagnostics[m] = replace(
                 model_diagnostics[m], warnings=(misfit, *model_diagnostics[m].warnings))
-    models_summary: dict[str, ModelSummary] = {}
-    observed = observed_flights(main.draws)
-    for model, fit in fits.items():
-        stats = parameters if model == config.model else _summarised(fit.draws,
-                                                                     settings.hdi_prob)
-        fit.stats = stats
-        models_summary[model] = ModelSummary(
-            parameters=stats, flights=flight_series(fit.draws, settings.hdi_prob),
-            residuals=onset_residuals(fit.draws, settings.hdi_prob), adequacy=adequacies[model])
-        fit.draws = stored[model] if model in stored else thin_draws(fit.draws, MAX_DRAWS)
+    models_summary = {m: summaries[m] for m in models}
     summary = Summary(
         model=config.model, n_onsets=len(onsets), roll=fitted.roll, n_rolls=len(fitted.sizes),
         missing_bounces=tuple(data.missing),
         notes=(*fitted.notes, *_release_notes(main.log_posterior.space)), parameters=parameters,
-        models=models_summary, observed_flights=observed,
+        models=models_summary, observed_flights=observed[config.model],
         fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
                for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
         comparison=rows, preferred=preferred, verdict=verdict, model_average=averaged,
