@@ -108,3 +108,71 @@ def test_summaries_read_draws_and_inference_data_alike(arrays):
     copy = pickle.loads(pickle.dumps(draws))
     assert copy.groups() == draws.groups() and copy.attrs == draws.attrs
     np.testing.assert_array_equal(copy.posterior["t_b"].values, draws.posterior["t_b"].values)
+
+
+def _h5netcdf_file(path, groups, attrs):
+    """The same groups written through h5netcdf, as posterior.nc was written before."""
+    import h5netcdf
+
+    from drumroll.reporting.posterior_file import _attribute, _variable_data
+
+    with h5netcdf.File(path, "w") as handle:
+        handle.attrs.update({key: _attribute(value) for key, value in attrs.items()})
+        for name, dataset in groups.items():
+            group = handle.create_group(name)
+            group.dimensions = dict(dataset.sizes)
+            for key in [*dataset.coords, *dataset.data_vars]:
+                variable = dataset[key]
+                data, dtype = _variable_data(np.asarray(variable.values))
+                written = group.create_variable(key, variable.dims, dtype=dtype, data=data)
+                for attr, value in variable.attrs.items():
+                    written.attrs[attr] = _attribute(value)
+            for attr, value in dataset.attrs.items():
+                group.attrs[attr] = _attribute(value)
+
+
+def _layout(path) -> dict:
+    """Every group, variable and attribute of an HDF5 file (references by name)."""
+    import h5py
+
+    out = {}
+
+    def visit(name, obj):
+        attrs = {}
+        for key in obj.attrs:
+            if key == "_NCProperties":
+                continue
+            value = obj.attrs[key]
+            if key == "DIMENSION_LIST":
+                value = [[obj.file[r].name for r in refs] for refs in value]
+            elif key == "REFERENCE_LIST":
+                value = sorted((obj.file[r].name, int(i)) for r, i in value)
+            else:
+                value = (np.asarray(value).dtype.str, np.asarray(value).tolist())
+            attrs[key] = value
+        data = None
+        if isinstance(obj, h5py.Dataset):
+            data = (obj.dtype.str, obj.shape, obj.chunks, np.asarray(obj[()]).tolist())
+        out[name] = (attrs, data)
+
+    with h5py.File(path, "r") as handle:
+        handle.visititems(visit)
+        out["/"] = ({k: str(handle.attrs[k]) for k in handle.attrs if k != "_NCProperties"},
+                    list(handle.attrs)[-1])
+    return out
+
+
+def test_posterior_file_is_laid_out_as_h5netcdf_lays_it_out(arrays, tmp_path):
+    """posterior.nc is written through h5py directly (h5netcdf looked each dimension up some
+    thirty times per variable): every group, dimension scale, variable, attribute and
+    netCDF-4 marker as h5netcdf writes them."""
+    from drumroll.reporting.posterior_file import write_groups
+
+    draws = Draws.from_dict(**arrays)
+    draws.posterior["alpha"].attrs.update(r_hat=1.001, ess_bulk=1500.0)
+    draws.sample_stats.attrs.update(tau_parameters=["alpha", "t_b"], converged=True)
+    groups = {name: getattr(draws, name) for name in draws.groups()}
+    attrs = {"models": "powerlaw", "main_model": "powerlaw"}
+    write_groups(tmp_path / "ours.nc", groups, attrs)
+    _h5netcdf_file(tmp_path / "theirs.nc", groups, attrs)
+    assert _layout(tmp_path / "ours.nc") == _layout(tmp_path / "theirs.nc")
