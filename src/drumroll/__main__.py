@@ -1,5 +1,5 @@
 """``python -m drumroll``: the same as the ``drumroll`` command."""
 
-from drumroll.cli.main import main
+from drumroll.cli.main import console_main
 
-raise SystemExit(main())
+console_main()

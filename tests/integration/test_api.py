@@ -41,3 +41,17 @@ def test_simulate_detect_and_read_onsets_agree_with_the_truth(tmp_path):
     path = tmp_path / "onsets.csv"
     path.write_text(onsets.to_csv())
     np.testing.assert_allclose(drumroll.read_onsets(path).time_s, onsets.time_s, atol=1e-6)
+
+
+def test_the_console_entry_ends_with_the_command_s_status_and_all_its_output(tmp_path):
+    """``python -m drumroll`` (and the console scripts) end the process without Python's
+    teardown (cli.main.end_process): the exit status and every line still come out."""
+    ok = subprocess.run([sys.executable, "-m", "drumroll", "predict",
+                         str(DATA / "table2_h80.toml"), "-n", "3"],
+                        capture_output=True, text=True, check=False)
+    assert ok.returncode == 0 and "t_B" in ok.stdout and ok.stdout.endswith("\n")
+    bad = subprocess.run([sys.executable, "-m", "drumroll", "estimate",
+                          str(tmp_path / "none.flac"), "--prior",
+                          str(DATA / "table2_h80.toml")],
+                         capture_output=True, text=True, check=False)
+    assert bad.returncode == 2 and "no such file" in bad.stderr

@@ -8,6 +8,7 @@ parser and sets ``func`` to a ``run(args) -> int`` callable. Errors the user can
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import logging
 import os
@@ -17,6 +18,7 @@ import sys
 import threading
 import warnings
 from collections.abc import Callable, Sequence
+from typing import NoReturn
 
 from drumroll import fileio, interruption
 from drumroll._version import __version__
@@ -228,5 +230,35 @@ def estimate_main(argv: Sequence[str] | None = None) -> int:
     return run_cli(make_parser, argv)
 
 
+def end_process(status: int) -> NoReturn:
+    """End this process with ``status`` once a command is done, without Python's teardown.
+
+    Every output is written and closed by then; what is left of an interpreter's shutdown is
+    freeing the heap object by object and clearing every module: 0.15-0.2 s after the
+    estimate's last line, on the command's critical path. The exit handlers the libraries
+    registered run (logging, multiprocessing, h5py, PIL, matplotlib: well under a
+    millisecond), the standard streams are flushed, and the process ends. For the console
+    scripts and ``python -m drumroll`` only: in-process callers (tests, notebooks) call
+    :func:`main`, which returns.
+    """
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more can reach it
+            pass
+    os._exit(status)
+
+
+def console_main() -> NoReturn:
+    """The ``drumroll`` console script: :func:`main`, then :func:`end_process`."""
+    end_process(main())
+
+
+def console_estimate() -> NoReturn:
+    """The ``estimate`` console script: :func:`estimate_main`, then :func:`end_process`."""
+    end_process(estimate_main())
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    console_main()
