@@ -48,6 +48,7 @@ from drumroll.inference.results import (
 )
 from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
+from drumroll.inference.space import ParameterSpace
 from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
 from drumroll.quantities import BY_NAME
 from drumroll.workers import process_pool
@@ -371,7 +372,7 @@ def _while_sampling(listener: EstimateListener | None, onsets: OnsetTable,
         listener.sampling(onsets, recording)
 
 
-def _release_notes(space) -> list[str]:
+def _release_notes(space: ParameterSpace) -> list[str]:
     """What the fall time rests on when the release is fixed rather than sampled: a roll
     does not observe its release (5 cm/s of release speed changes t_C by about 5 ms and t_B
     by 0.2 ms on the paper's set-up), so t_C's error bar is then conditional on it."""

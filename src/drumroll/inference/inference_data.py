@@ -99,13 +99,14 @@ def build_draws(log_posterior: LogPosterior, chain: Chain, rng: np.random.Genera
         pointwise = conditional_pointwise(data, _flat(impacts),
                                           np.broadcast_to(values["jitter"], t0.size))
         noise = scale * rng.standard_normal(scale.shape)
-    else:
+    else:  # Student-t: T0 sampled
         pointwise = log_posterior.pointwise(flat_samples, _flat(t0[..., None])[:, 0])
-        noise = scale * rng.standard_normal(scale.shape)  # replaced below; keeps the stream
-    pointwise = pointwise.reshape((*samples.shape[:2], -1))
-    if log_posterior.noise == "student-t":
+        # Gaussian draws made and dropped, as always, so that every later draw (the
+        # replicated onsets, the prior sample) is the one earlier versions stored.
+        rng.standard_normal(scale.shape)
         nu = np.broadcast_to(np.asarray(values["nu"], float), scale.shape[:1])[:, None]
         noise = scale * rng.standard_t(nu, size=scale.shape)
+    pointwise = pointwise.reshape((*samples.shape[:2], -1))
     model_times = _flat(t0[..., None]) + data.at_onsets(_flat(impacts))
     predicted = (model_times + noise).reshape(pointwise.shape)
     flights = np.diff(impacts, axis=-1)

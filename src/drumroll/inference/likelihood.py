@@ -117,6 +117,15 @@ class OnsetData:
         return impacts if self._at is None else impacts[..., self._at]
 
 
+def t0_marginal(chi2: NDArray, log_det: NDArray, total_weight: NDArray, n_onsets: int
+                ) -> NDArray:
+    """log ∫ N(t; T0 + τ, Σ) dT0 / W under T0's flat prior: −½ χ² − ½ log|Σ| − ½ log 1ᵀΣ⁻¹1
+    − ½ (n − 1) log 2π − log W, with χ² the residuals' generalised least-squares misfit about
+    T0's best value and 1ᵀΣ⁻¹1 its total weight (one formula for diagonal and dense Σ)."""
+    return (-0.5 * chi2 - 0.5 * log_det - 0.5 * np.log(total_weight)
+            - 0.5 * (n_onsets - 1) * _LOG_2PI - math.log(T0_WINDOW_S))
+
+
 def gaussian_marginal(data: OnsetData, impacts: NDArray, jitter: NDArray
                       ) -> tuple[NDArray, NDArray, NDArray]:
     """Log-likelihood with T0 marginalised, and T0's conditional mean and sd.
@@ -143,9 +152,7 @@ def gaussian_marginal(data: OnsetData, impacts: NDArray, jitter: NDArray
     sum_w = weight.sum(axis=1)
     t0_mean = (weight * residual).sum(axis=1) / sum_w
     chi2 = (weight * (residual - t0_mean[:, None]) ** 2).sum(axis=1)
-    log_like = (-0.5 * chi2 - 0.5 * np.log(variance).sum(axis=1)
-                - 0.5 * (data.n_onsets - 1) * _LOG_2PI - 0.5 * np.log(sum_w)
-                - math.log(T0_WINDOW_S))
+    log_like = t0_marginal(chi2, np.log(variance).sum(axis=1), sum_w, data.n_onsets)
     log_like = np.where(np.isfinite(log_like), log_like, -np.inf)
     return log_like, t0_mean, 1.0 / np.sqrt(sum_w)
 

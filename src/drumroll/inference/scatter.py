@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from drumroll.inference.likelihood import T0_WINDOW_S, OnsetData
+from drumroll.inference.likelihood import OnsetData, t0_marginal
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -55,10 +55,10 @@ def impact_sensitivity(data: OnsetData, slopes: NDArray) -> NDArray:
     running = np.zeros((slopes.shape[0], slopes.shape[1] + 1))
     np.cumsum(slopes, axis=1, out=running[:, 1:])  # C_0 … C_K
     at = data.bounces
-    j = np.arange(1, slopes.shape[1] + 1)
-    # C_{k_i} − C_{j−1} for j ≤ k_i.
+    # C_{k_i} − C_{j−1} for j ≤ k_i, zero beyond (masked in place: one array per call).
     sensitivity = running[:, at, None] - running[:, None, :-1]
-    return np.where(j[None, None, :] <= at[None, :, None], sensitivity, 0.0)
+    sensitivity *= np.arange(1, slopes.shape[1] + 1)[None, :] <= at[:, None]
+    return sensitivity
 
 
 def onset_covariance(data: OnsetData, slopes: NDArray, jitter: NDArray, scatter: NDArray
@@ -146,8 +146,7 @@ def scatter_marginal(data: OnsetData, impacts: NDArray, covariance: NDArray
                 continue
     n = data.n_onsets
     for rows, (q_rr, q_r1, q_11, log_det, centre) in parts:
-        log_like[rows] = (-0.5 * (q_rr - q_r1**2 / q_11) - 0.5 * log_det - 0.5 * np.log(q_11)
-                          - 0.5 * (n - 1) * _LOG_2PI - math.log(T0_WINDOW_S))
+        log_like[rows] = t0_marginal(q_rr - q_r1**2 / q_11, log_det, q_11, n)
         t0_mean[rows] = centre + q_r1 / q_11
         t0_sd[rows] = 1.0 / np.sqrt(q_11)
     return np.where(np.isfinite(log_like), log_like, -np.inf), t0_mean, t0_sd
