@@ -136,6 +136,9 @@ QUANTITIES: dict[str, Quantity] = {q.key: q for q in (
     Quantity("restitution_scatter", "restitution_scatter", r"$s_\alpha$", "s_α", "", 1.0,
              "parameter", "bounce-to-bounce scatter of the restitution (sd of ln α_k)",
              0.0, _INF, False, True),
+    Quantity("restitution_exponent", "restitution_exponent", r"$p$", "p", "", 1.0,
+             "parameter", "exponent of the restitution's speed dependence, "
+             "1 − α(v) = (1 − α)(v/v₁)^p (models MOTION/speed)"),
     Quantity("jitter_sd_ms", "jitter_sd", r"$\sigma_\mathrm{sd}$", "sd of the jitter", "ms",
              1e-3, "derived", "standard deviation of the Student-t onset noise, "
              "σ √(ν / (ν − 2)) (ν > 2; the jitter σ is its scale)", 0.0, _INF, True, True),
@@ -176,6 +179,11 @@ BY_NAME: dict[str, Quantity] = {q.name: q for q in QUANTITIES.values()}
 
 #: Values used when a config leaves a parameter out (user's units).
 DEFAULT_VALUES: dict[str, float] = {"release_speed_m_s": 0.0, "release_angle_deg": 0.0}
+#: Priors used when a model needs a parameter the config leaves out, written as in a config:
+#: the speed law's exponent is weakly informative around the constant law (p = 0), wide
+#: enough for viscoelastic theory's 1/5 and for a light ball's drag (p ≈ 0.5).
+DEFAULT_PRIORS: dict[str, dict[str, object]] = {
+    "restitution_exponent": {"dist": "normal", "mu": 0.0, "sigma": 0.5}}
 
 
 def quantity(key: str) -> Quantity:

@@ -2,7 +2,8 @@
 
 The format (lengths in mm, times in s, speeds in m/s, as in the paper's tables)::
 
-    model = "pendulum"            # "powerlaw" | "small-angle" | "pendulum"
+    model = "pendulum"            # "powerlaw" | "small-angle" | "pendulum", each optionally
+                                  # "/speed": a restitution that depends on the impact speed
     compare = ["small-angle"]     # models to compare against
     gravity_m_s2 = 9.81           # optional
 
@@ -39,11 +40,11 @@ from drumroll.config.priors_section import parse_prior
 from drumroll.config.validate import check_keys, number, string, table
 from drumroll.distributions import Distribution, Fixed
 from drumroll.errors import ConfigError
-from drumroll.physics import GEOMETRIC_MODELS, MODELS, STANDARD_GRAVITY, STICK_SHAPES
+from drumroll.physics import MODELS, STANDARD_GRAVITY, STICK_SHAPES
 from drumroll.physics.geometry import StickGeometry
-from drumroll.physics.models import parameter_keys
+from drumroll.physics.models import canonical_name, parameter_keys
 from drumroll.physics.release import tip_strikes_first
-from drumroll.quantities import DEFAULT_VALUES, PARAMETERS, STICK_DIMENSIONS
+from drumroll.quantities import DEFAULT_PRIORS, DEFAULT_VALUES, PARAMETERS, STICK_DIMENSIONS
 
 #: The sections of the file format read by later stages (the simulator, the sampler, …).
 SECTIONS: tuple[str, ...] = ("simulate", "sampler", "likelihood", "report")
@@ -195,12 +196,12 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
     """Validate an already-parsed TOML document (see :func:`load_config`)."""
     raw = dict(raw)
     check_keys(raw, (*_TOP_LEVEL, *SECTIONS), "")
-    model = string(raw.get("model", "pendulum"), "model", MODELS)
+    model = model_name(raw.get("model", "pendulum"), "model")
     compare = _parse_compare(raw.get("compare", []), model)
     gravity = float(number(raw.get("gravity_m_s2", STANDARD_GRAVITY), "gravity_m_s2",
                            positive=True))
     models = (model, *compare)
-    geometric = [m for m in models if m in GEOMETRIC_MODELS]
+    geometric = [m for m in models if MODELS[m].needs_stick]
     stick = _parse_stick(table(raw["stick"], "stick")) if "stick" in raw else None
     if geometric and stick is None:
         raise ConfigError(f"stick: missing section (the {geometric[0]} model needs the "
@@ -214,12 +215,19 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
                   sections=sections, raw=raw, path=path)
 
 
+def model_name(value: Any, where: str) -> str:
+    """A model's name, ``MOTION`` or ``MOTION/LAW`` (``MOTION/constant`` is ``MOTION``)."""
+    if isinstance(value, str):
+        value = canonical_name(value)
+    return string(value, where, MODELS)
+
+
 def _parse_compare(value: Any, model: str) -> tuple[str, ...]:
     if isinstance(value, str):
         value = [value]
     if not isinstance(value, list):
         raise ConfigError(f"compare: expected a list of model names, got {value!r}")
-    names = [string(v, f"compare[{i}]", MODELS) for i, v in enumerate(value)]
+    names = [model_name(v, f"compare[{i}]") for i, v in enumerate(value)]
     return tuple(dict.fromkeys(n for n in names if n != model))
 
 
@@ -249,6 +257,9 @@ def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str,
         for key in parameter_keys(model):
             spec = PARAMETERS[key]
             if spec.name in priors:
+                continue
+            if key in DEFAULT_PRIORS:
+                priors[spec.name] = parse_prior(DEFAULT_PRIORS[key], spec, f"priors.{key}")
                 continue
             if key not in DEFAULT_VALUES:
                 raise ConfigError(f"priors.{key}: missing (the {model} model needs the "

@@ -96,12 +96,13 @@ class LogPosterior:
         under a scattering restitution, shapes ``(batch, K + 1)``, ``(batch, n, n)``,
         ``(batch,)``."""
         x = np.atleast_2d(np.asarray(x, float))
-        impacts, slopes, valid = self.space.impacts_and_slopes(x, self.data.n_flights)
+        impacts, slopes, propagation, valid = self.space.impacts_and_slopes(
+            x, self.data.n_flights)
         rows = x.shape[0]
         with np.errstate(all="ignore"):
             covariance = onset_covariance(
                 self.data, slopes, np.broadcast_to(self.space.value(x, "jitter"), rows),
-                np.broadcast_to(self.space.value(x, SCATTER), rows))
+                np.broadcast_to(self.space.value(x, SCATTER), rows), propagation)
         return impacts, covariance, valid
 
     def _scatter_marginal(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -78,6 +78,8 @@ def predictable_models(config: Config) -> tuple[str, ...]:
     """The models ``predict`` can propagate: those with a stick when the config gives one,
     the others (the power law) when the config gives a prior for each of their parameters."""
     def predictable(name: str) -> bool:
+        if not all(p in config.priors for p in MODELS[name].law.parameters):
+            return False  # a restitution law the config does not ask for
         if MODELS[name].needs_stick:
             return config.stick is not None
         return all(config.has_prior(key) for key in parameter_keys(name))
@@ -130,9 +132,7 @@ def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_
     if not valid.any():
         reason, _ = reasons.most_common(1)[0]
         raise DrumrollError(f"{model}: no draw from the priors makes a drumroll: {reason}")
-    kept = Bounces(**{name: getattr(bounces, name)[valid] for name in
-                      ("alpha", "flights", "t_c", "t_b", "theta_c", "omega_c", "tip_speed_c",
-                       "reason")})
+    kept = Bounces(**{f.name: getattr(bounces, f.name)[valid] for f in fields(Bounces)})
     return Prediction(model=model, bounces=kept, n_draws=n_draws, invalid_reasons=dict(reasons))
 
 

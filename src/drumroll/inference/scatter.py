@@ -1,13 +1,16 @@
 """A restitution that scatters from bounce to bounce: onsets with a dense covariance.
 
-No real impact repeats exactly: α_k = α e^{ε_k}, ε_k ~ N(0, s²) independently for every bounce
-(``restitution_scatter`` s under ``[priors]``). Flight k depends on the restitutions only through
-u_k = Σ_{j≤k} ln α_j (:meth:`~drumroll.physics.model.ForwardModel.restitution_slopes`), so to
-first order in the ε the impact times move by
+No real impact repeats exactly: α_k = α(v_k) e^{ε_k}, ε_k ~ N(0, s²) independently for every
+bounce (``restitution_scatter`` s under ``[priors]``). Flight k depends on the restitutions only
+through u_k = Σ_{j≤k} ln α_j (:meth:`~drumroll.physics.model.ForwardModel.restitution_slopes`),
+and ε_j moves u_k (k ≥ j) by D_kj ε_j: D_kj = 1 for a constant restitution (eq. 9), and
+D_kj = P_k / P_j under a law whose α depends on the impact speed, P_k = Π_{i≤k} ∂u_i/∂u_{i−1}
+(:meth:`~drumroll.physics.restitution.RestitutionLaw.propagation`: a bounce sent off faster
+hits harder next time and loses more). To first order in the ε the impact times move by
 
-    δτ_m = Σ_{j≤m} G_mj ε_j,    G_mj = Σ_{k=j}^{m} ∂T_k/∂u_k = C_m − C_{j−1},
+    δτ_m = Σ_{j≤m} G_mj ε_j,    G_mj = Σ_{k=j}^{m} ∂T_k/∂u_k D_kj = (C_m − C_{j−1}) / P_j,
 
-C the running sums of the slopes (C_0 = 0). A scatter once in a roll moves every later impact:
+C the running sums of slope_k P_k (C_0 = 0). A scatter once in a roll moves every later impact:
 the onsets' errors are a random walk on top of the independent timing noise. The ε are
 marginalised analytically, not sampled: the onsets t_i = T0 + τ_{k_i} + e_i are Gaussian with
 covariance
@@ -36,7 +39,8 @@ from drumroll.inference.likelihood import OnsetData, t0_marginal
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-def impact_sensitivity(data: OnsetData, slopes: NDArray) -> NDArray:
+def impact_sensitivity(data: OnsetData, slopes: NDArray, propagation: NDArray | None = None
+                       ) -> NDArray:
     """G: ∂τ_{k_i}/∂ε_j for every observed onset i and bounce j = 1 … K.
 
     Parameters
@@ -45,6 +49,8 @@ def impact_sensitivity(data: OnsetData, slopes: NDArray) -> NDArray:
         The onsets (their bounce numbers k_i; K the last).
     slopes
         ∂T_k/∂u_k of flights k = 1 … K, shape ``(batch, K)``.
+    propagation
+        ∂u_k/∂u_{k−1}, shape ``(batch, K)``, or None where it is 1 (a constant restitution).
 
     Returns
     -------
@@ -53,16 +59,20 @@ def impact_sensitivity(data: OnsetData, slopes: NDArray) -> NDArray:
         before it).
     """
     running = np.zeros((slopes.shape[0], slopes.shape[1] + 1))
-    np.cumsum(slopes, axis=1, out=running[:, 1:])  # C_0 … C_K
+    carried = None if propagation is None else np.cumprod(propagation, axis=1)  # P_1 … P_K
+    np.cumsum(slopes if carried is None else slopes * carried, axis=1,
+              out=running[:, 1:])  # C_0 … C_K
     at = data.bounces
     # C_{k_i} − C_{j−1} for j ≤ k_i, zero beyond (masked in place: one array per call).
     sensitivity = running[:, at, None] - running[:, None, :-1]
     sensitivity *= np.arange(1, slopes.shape[1] + 1)[None, :] <= at[:, None]
+    if carried is not None:
+        sensitivity /= carried[:, None, :]
     return sensitivity
 
 
-def onset_covariance(data: OnsetData, slopes: NDArray, jitter: NDArray, scatter: NDArray
-                     ) -> NDArray:
+def onset_covariance(data: OnsetData, slopes: NDArray, jitter: NDArray, scatter: NDArray,
+                     propagation: NDArray | None = None) -> NDArray:
     """Σ = diag(σ² + s_i²) + s² G Gᵀ, shape ``(batch, n_onsets, n_onsets)`` (module docstring).
 
     Parameters
@@ -73,8 +83,10 @@ def onset_covariance(data: OnsetData, slopes: NDArray, jitter: NDArray, scatter:
         ∂T_k/∂u_k, shape ``(batch, K)``.
     jitter, scatter
         σ (s) and s (sd of ln α_k) per row, shape ``(batch,)`` (or scalars).
+    propagation
+        The restitution law's ∂u_k/∂u_{k−1}, ``(batch, K)``; None for a constant α.
     """
-    sensitivity = impact_sensitivity(data, slopes)
+    sensitivity = impact_sensitivity(data, slopes, propagation)
     scatter2 = np.reshape(np.asarray(scatter, float) ** 2, (-1, 1, 1))
     covariance = scatter2 * np.matmul(sensitivity, sensitivity.transpose(0, 2, 1))
     diagonal = np.reshape(np.asarray(jitter, float) ** 2, (-1, 1)) + data.sigmas**2

@@ -197,22 +197,25 @@ class ParameterSpace:
         return impacts, valid
 
     def impacts_and_slopes(self, x: NDArray, n_flights: int
-                           ) -> tuple[NDArray, NDArray, NDArray]:
-        """:meth:`impacts`, and the flights' slopes ∂T_k/∂u_k
+                           ) -> tuple[NDArray, NDArray, NDArray | None, NDArray]:
+        """:meth:`impacts`, the flights' slopes ∂T_k/∂u_k and the restitution law's
+        propagation ∂u_k/∂u_{k−1} (None for a constant α)
         (:meth:`~drumroll.physics.model.ForwardModel.restitution_slopes`), shape
         ``(batch, N)``: what a scattering restitution needs."""
         x = np.atleast_2d(x)
         values = self._kernel_values(x)
-        flights, slopes, valid = self.forward.restitution_slopes(
+        flights, slopes, propagation, valid = self.forward.restitution_slopes(
             values, n_flights, self._stick_shape, self.config.gravity)
         valid = valid & self._tip_first(values)
         shape = (x.shape[0], n_flights)
         flights, slopes = np.broadcast_to(flights, shape), np.broadcast_to(slopes, shape)
+        if propagation is not None:
+            propagation = np.broadcast_to(propagation, shape)
         impacts = np.zeros((x.shape[0], n_flights + 1))
         np.cumsum(flights, axis=1, out=impacts[:, 1:])
         if CONTACT in self.priors:
             impacts = self.with_contact(impacts, self.value(x, CONTACT))
-        return impacts, slopes, np.broadcast_to(valid, shape[:1])
+        return impacts, slopes, propagation, np.broadcast_to(valid, shape[:1])
 
     def _tip_first(self, values: dict[str, NDArray | float]) -> NDArray | bool:
         """Where the tip, not the rim of its cone, strikes first (every model assumes it:

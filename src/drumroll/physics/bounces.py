@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,10 +23,11 @@ REASONS: tuple[str, ...] = (
     "every parameter must be a finite number",
     "the rim of the cone strikes the drumhead before its tip (the contact angle is below "
     "atan(R / l2)), which no model here describes",
+    "the restitution law leaves (0, 1] or makes a harder impact rebound slower",
 )
 OK, PIVOT_PAST_CM, TIP_CANNOT_REACH, HEIGHT_NOT_POSITIVE, RELEASED_BELOW_CONTACT, \
     BAD_RELEASE_ANGLE, NEGATIVE_RELEASE_SPEED, BAD_ALPHA, OVER_THE_TOP, BAD_T_B, \
-    PIVOT_OFF_STICK, NOT_FINITE, RIM_FIRST = range(len(REASONS))
+    PIVOT_OFF_STICK, NOT_FINITE, RIM_FIRST, BAD_RESTITUTION_LAW = range(len(REASONS))
 
 
 def first_failure(checks: list[tuple[int, NDArray[np.bool_]]], shape: tuple[int, ...]
@@ -43,7 +44,8 @@ class Bounces:
     """A batch of bounce sequences (leading axis: parameter sets).
 
     Impacts are numbered k = 0 (the first impact) … N; flight k lies between impacts k−1 and
-    k and starts with upward angular speed α^k ω_C (physics.md). Entries of an invalid
+    k and starts with upward angular speed r_k ω_C, r_k = α^k under a constant restitution
+    (physics.md; :mod:`drumroll.physics.restitution`). Entries of an invalid
     parameter point are NaN; ``reason`` says why it is invalid.
 
     Attributes
@@ -52,6 +54,9 @@ class Bounces:
         Coefficient of restitution α, shape ``(batch,)``.
     flights
         Flight times T_1 … T_N (s), shape ``(batch, N)``.
+    speed_ratios
+        r_1 … r_N: the rebound speed after k impacts over the first contact speed (α^k for a
+        constant restitution), shape ``(batch, N)``.
     t_c
         Fall time from release to the first impact (s); NaN for the power law, which has no
         geometry.
@@ -70,6 +75,7 @@ class Bounces:
 
     alpha: NDArray
     flights: NDArray
+    speed_ratios: NDArray
     t_c: NDArray
     t_b: NDArray
     theta_c: NDArray
@@ -95,12 +101,22 @@ class Bounces:
 
     @property
     def impact_tip_speeds(self) -> NDArray:
-        """Tip speed arriving at impact k, α^k × ``tip_speed_c`` (m/s), shape ``(batch, N+1)``.
+        """Tip speed arriving at impact k, r_k × ``tip_speed_c`` (m/s), shape ``(batch, N+1)``.
 
         Between impacts energy is conserved, so flight k lands as fast as it left.
         """
-        k = np.arange(self.n_flights + 1)
-        return self.tip_speed_c[..., None] * safe_alpha(self.alpha, self.reason)[..., None] ** k
+        ones = np.ones((*self.speed_ratios.shape[:-1], 1))
+        return self.tip_speed_c[..., None] * np.concatenate([ones, self.speed_ratios], axis=-1)
+
+    def invalidated(self, where: NDArray[np.bool_], code: int) -> Bounces:
+        """These bounces with the valid points ``where`` is True made invalid for reason
+        ``code`` (their fields NaN)."""
+        bad = where & self.valid
+        if not np.any(bad):
+            return self
+        reason = np.where(bad, np.int8(code), self.reason)
+        return masked_bounces(reason, **{f.name: getattr(self, f.name) for f in fields(self)
+                                         if f.name != "reason"})
 
     def reasons(self) -> list[str]:
         """The reason text of each batch element ('' where valid)."""

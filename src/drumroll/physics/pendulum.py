@@ -18,6 +18,8 @@ one ``elliprf`` call.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.special import elliprf
@@ -28,7 +30,6 @@ from drumroll.physics.bounces import (
     RELEASED_BELOW_CONTACT,
     Bounces,
     masked_bounces,
-    safe_alpha,
 )
 from drumroll.physics.geometry import StickGeometry
 from drumroll.physics.model import ForwardModel, Values, alpha_of, alpha_valid
@@ -107,19 +108,20 @@ class Pendulum(ForwardModel):
 
     t_C from the release (θ0, ω0) to θ_C, including a fall with m0 > 1 (enough energy to pass
     over the top); ω_C from energy conservation (eq. 4 when θ0 = ω0 = 0); flights
-    T_k = 2 F(χ_k | m_k) / √γ with m_k = s_C + α^{2k} (m0 − s_C). A point where a flight would
+    T_k = 2 F(χ_k | m_k) / √γ with m_k = s_C + r_k² (m0 − s_C), r_k = α^k under a constant
+    restitution (:mod:`drumroll.physics.restitution`). A point where a flight would
     have m_k ≥ 1 (over the top, never to return) is invalid; t_B is ``inf`` when only the
     fully elastic first rebound would pass over the top.
     """
 
-    name = "pendulum"
-    title = "exact pendulum"
-    colour = "#0072B2"
-    parameters = PENDULUM_PARAMETERS
+    motion = "pendulum"
+    motion_title = "exact pendulum"
+    colours: ClassVar[dict[str, str]] = {"constant": "#0072B2", "speed": "#56B4E9"}
+    motion_parameters = PENDULUM_PARAMETERS
     needs_stick = True
 
-    def flights(self, values: Values, n_flights: int, stick_shape: str | None = None,
-                g: float = 9.81) -> tuple[NDArray, NDArray]:
+    def flights_at(self, ratios: NDArray, values: Values, stick_shape: str | None = None,
+                   g: float = 9.81) -> tuple[NDArray, NDArray]:
         alpha, theta0 = alpha_of(values), values["release_angle"]
         checks, (gamma, _, sin_theta_c, omega0) = swing(
             stick_shape, values["stick_length"], values["stick_tip"], values["stick_radius"],
@@ -131,9 +133,9 @@ class Pendulum(ForwardModel):
             theta_c = np.arcsin(sin_theta_c)
             valid = passes(checks, np.isfinite(alpha) & alpha_valid(alpha) & (theta0 < theta_c))
             *_, s_c, c_c, _, contact_excess = contact(theta0, theta_c, omega0, gamma)
-            k = np.arange(1.0, n_flights + 1.0)
-            excess = contact_excess[:, None] * alpha[:, None] ** (2.0 * k)
-            if n_flights:  # α ≤ 1: the first flight rises highest, so it alone can go over
+            excess = contact_excess[:, None] * ratios**2
+            if ratios.shape[1]:  # r_k ≤ 1 falls: the first flight rises highest, so it alone
+                # can go over the top
                 valid &= c_c - excess[:, 0] > 0.0
             phase = flight_phase(excess, s_c[:, None] + excess, c_c[:, None])
             return phase * (2.0 / np.sqrt(gamma))[:, None], valid
@@ -145,8 +147,8 @@ class Pendulum(ForwardModel):
     def contact_angle(self, ratio: NDArray) -> NDArray:
         return np.arcsin(ratio)
 
-    def bounces(self, values: Values, n_flights: int, stick: StickGeometry | None = None,
-                g: float = 9.81) -> Bounces:
+    def bounces_at(self, values: dict[str, NDArray], ratios: NDArray, n_flights: int,
+                   stick: StickGeometry | None = None, g: float = 9.81) -> Bounces:
         r = prepare_release(values["alpha"], values["pivot"], values["height"], stick,
                             values["release_speed"], values["release_angle"], g)
         theta_c = np.arcsin(r.sin_theta_c)
@@ -172,13 +174,15 @@ class Pendulum(ForwardModel):
         t_c = np.where(libration, fall_libration, fall_rotation) / root_gamma
         omega_c = 2.0 * root_gamma * np.sqrt(contact_excess)
 
-        # Flights k = 0 … N; k = 0 (full contact speed) is t_B, the N = 0 term of eq. 11.
-        k = np.arange(n_flights + 1)
-        excess = contact_excess[:, None] * safe_alpha(r.alpha, reason)[:, None] ** (2 * k)
+        # Flights k = 0 … N; k = 0 (full contact speed, r_0 = 1) is t_B, the N = 0 term of
+        # eq. 11.
+        all_ratios = np.concatenate([np.ones((ratios.shape[0], 1)), ratios], axis=1)
+        excess = contact_excess[:, None] * all_ratios**2
         times, returns = flight_times(excess, s_c, c_c, r.gamma)
         all_flights = np.where(returns, times, np.inf)
         reason = np.where((reason == OK) & ~returns[:, 1:].all(axis=1),
                           np.int8(OVER_THE_TOP), reason)
-        return masked_bounces(reason, alpha=r.alpha, flights=all_flights[:, 1:], t_c=t_c,
+        return masked_bounces(reason, alpha=r.alpha, flights=all_flights[:, 1:],
+                              speed_ratios=ratios, t_c=t_c,
                               t_b=all_flights[:, 0], theta_c=theta_c, omega_c=omega_c,
                               tip_speed_c=omega_c * r.arm)

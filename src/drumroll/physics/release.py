@@ -19,7 +19,6 @@ from drumroll.physics.bounces import (
     TIP_CANNOT_REACH,
     Bounces,
     first_failure,
-    masked_bounces,
 )
 from drumroll.physics.geometry import STICK_SHAPES, StickGeometry, mass_properties_squared
 
@@ -137,13 +136,8 @@ def tip_contact_only(bounces: Bounces, stick: StickGeometry, pivot: ArrayLike,
                      height: ArrayLike) -> Bounces:
     """``bounces`` with every point where the rim would strike first made invalid (reason
     :data:`~drumroll.physics.bounces.RIM_FIRST`, fields NaN): what a user's run is held to."""
-    rim = rim_strikes_first(stick.shape, stick.length, stick.tip, stick.radius, pivot,
-                            height) & bounces.valid
-    if not np.any(rim):
-        return bounces
-    reason = np.where(rim, np.int8(RIM_FIRST), bounces.reason)
-    return masked_bounces(reason, **{name: getattr(bounces, name) for name in (
-        "alpha", "flights", "t_c", "t_b", "theta_c", "omega_c", "tip_speed_c")})
+    return bounces.invalidated(rim_strikes_first(stick.shape, stick.length, stick.tip,
+                                                 stick.radius, pivot, height), RIM_FIRST)
 
 
 def passes(checks: tuple[tuple[int, NDArray], ...], valid: NDArray) -> NDArray:

@@ -28,7 +28,9 @@ BASE = {
                "height_mm": {"dist": "normal", "mu": 80, "sigma": 3},
                "release_speed_m_s": 0, "release_angle_deg": 0,
                "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10},
-               "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0}},
+               "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0},
+               # used by the MOTION/speed models only
+               "restitution_exponent": {"dist": "normal", "mu": 0.2, "sigma": 0.3}},
 }
 
 

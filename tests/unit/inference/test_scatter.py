@@ -90,12 +90,20 @@ def test_marginal_and_loo_terms_equal_a_dense_normal_with_t0_integrated(gaps):
                                                    abs=1e-8 * abs(whole) + 1e-6)
 
 
-def _exact_impacts(model: str, eps: np.ndarray, alpha: float, **kwargs) -> np.ndarray:
-    """Impact times τ_0 … τ_K with α_k = α e^{ε_k}, bounce by bounce (draws × K): flight k
-    depends on the restitutions through u_k = Σ_{j≤k} ln α_j only, so it is flight k of a drop
-    with a constant α_eff = exp(u_k / k), which the public forward model computes exactly."""
+def _exact_impacts(model: str, eps: np.ndarray, alpha: float, exponent: float | None = None,
+                   **kwargs) -> np.ndarray:
+    """Impact times τ_0 … τ_K with α_k = α(v_k) e^{ε_k}, bounce by bounce (draws × K): flight
+    k depends on the restitutions through u_k = Σ_{j≤k} ln α_j only, so it is flight k of a
+    drop with a constant α_eff = exp(u_k / k), which the public forward model computes
+    exactly. α(v) is α (constant law) or, given ``exponent`` p, 1 − (1 − α)(v_k / v_1)^p with
+    v_k / v_1 = exp(u_{k−1}), the speed the previous bounce was actually sent off with."""
     n_draws, k_max = eps.shape
-    u = np.cumsum(np.log(alpha) + eps, axis=1)
+    u = np.empty((n_draws, k_max))
+    before = np.zeros(n_draws)  # u_0
+    for j in range(k_max):
+        law = alpha if exponent is None else 1.0 - (1.0 - alpha) * np.exp(exponent * before)
+        before = u[:, j] = before + np.log(law) + eps[:, j]
+    model = model.removesuffix("/speed")
     k = np.arange(1, k_max + 1)
     a_eff = np.exp(u / k)
     flights = np.empty_like(u)
@@ -109,6 +117,8 @@ CASES = {
     "powerlaw": dict(t_b=0.25),
     "pendulum": dict(pivot=0.131, height=0.08),
     "pendulum-high": dict(pivot=0.11, height=0.16),
+    "powerlaw/speed": dict(t_b=0.25, exponent=0.4),
+    "pendulum/speed": dict(pivot=0.131, height=0.08, exponent=0.4),
 }
 
 
@@ -119,21 +129,22 @@ def test_linearised_covariance_matches_brute_force_draws_of_the_restitution(case
     mean (no shift) and covariance s² G Gᵀ. Up to s = 3 % the covariance is within 2 % (its
     sampling error is ~1 %) and the mean shift under 7 % of an sd."""
     model = case.split("-")[0]
-    kwargs = CASES[case]
+    kwargs = dict(CASES[case])
     k_max, alpha = 20, 0.88
     rng = np.random.default_rng(7)
     exact = _exact_impacts(model, rng.normal(0, scatter, (20000, k_max)), alpha, **kwargs)
     nominal = _exact_impacts(model, np.zeros((1, k_max)), alpha, **kwargs)[0]
     data = OnsetData.from_arrays(np.arange(k_max + 1.0))  # times unused: bounces 0 … K
+    exponent = kwargs.pop("exponent", 0.0)
     values = {"alpha": np.array([alpha]), "t_b": np.array([kwargs.get("t_b", 0.25)]),
               **{k: np.array([v]) for k, v in kwargs.items()}, "release_speed": 0.0,
               "release_angle": 0.0, "stick_length": 0.348, "stick_tip": 0.06,
-              "stick_radius": 0.0075}
-    flights, slopes, valid = forward_model(model).restitution_slopes(
+              "stick_radius": 0.0075, "restitution_exponent": np.array([exponent])}
+    flights, slopes, propagation, valid = forward_model(model).restitution_slopes(
         values, k_max, "cylinder-cone")
     assert valid.all()
     np.testing.assert_allclose(np.cumsum(flights[0]), nominal[1:], rtol=1e-12)
-    linear = onset_covariance(data, slopes, 0.0, scatter)[0]
+    linear = onset_covariance(data, slopes, 0.0, scatter, propagation)[0]
     empirical = np.cov(exact[:, 1:], rowvar=False)
     sd = np.sqrt(np.diag(linear))[1:]
     assert np.linalg.norm(empirical - linear[1:, 1:]) / np.linalg.norm(linear) < 0.02

@@ -27,7 +27,7 @@ from drumroll.config import parse_config
 from drumroll.distributions import Fixed, HalfNormal, Normal
 from drumroll.inference.space import DEFAULT_JITTER_PRIOR, ParameterSpace
 from drumroll.physics import StickGeometry, bounce_sequence
-from drumroll.physics.bounces import RIM_FIRST, masked_bounces
+from drumroll.physics.bounces import RIM_FIRST
 from drumroll.physics.models import MODELS
 from tests.unit.inference.test_posterior import _config
 
@@ -162,14 +162,17 @@ def _direct(space: ParameterSpace, x: np.ndarray, n: int):
     def get(name):
         return col[name] if name in col else space.priors[name].value
 
-    if space.model == "powerlaw":
-        return bounce_sequence("powerlaw", alpha=get("alpha"), t_b=get("t_b"), n_flights=n)
+    law = ({"restitution_exponent": get("restitution_exponent")}
+           if "restitution_exponent" in space.priors else {})
+    if not space.forward.needs_stick:
+        return bounce_sequence(space.model, alpha=get("alpha"), t_b=get("t_b"), n_flights=n,
+                               **law)
     stick = StickGeometry(config.stick.shape, get("stick_length"), get("stick_tip"),
                           get("stick_radius"))
     bounces = bounce_sequence(space.model, alpha=get("alpha"), pivot=get("pivot"),
                               height=get("height"), release_speed=get("release_speed"),
                               release_angle=get("release_angle"), stick=stick, n_flights=n,
-                              g=config.gravity)
+                              g=config.gravity, **law)
     if config.stick.shape == "thin-rod":
         return bounces
     # A run is held to tip contact: the contact angle asin(h / (L − d)) at least the cone's
@@ -177,10 +180,7 @@ def _direct(space: ParameterSpace, x: np.ndarray, n: int):
     arm = get("stick_length") + get("stick_tip") - get("pivot")
     rim = np.arcsin(np.clip(get("height") / arm, -1, 1)) < np.arctan2(get("stick_radius"),
                                                                        get("stick_tip"))
-    rim = np.broadcast_to(rim, bounces.reason.shape) & bounces.valid
-    return masked_bounces(np.where(rim, np.int8(RIM_FIRST), bounces.reason), **{
-        name: getattr(bounces, name) for name in ("alpha", "flights", "t_c", "t_b", "theta_c",
-                                                  "omega_c", "tip_speed_c")})
+    return bounces.invalidated(np.broadcast_to(rim, bounces.reason.shape), RIM_FIRST)
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
