@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from drumroll.cli.main import main
 from paths import DATA
 
@@ -41,3 +43,27 @@ def test_a_roll_the_exact_pendulum_made_passes_under_it(tmp_path, capsys):
     assert adequacy["adequate"] is True
     assert set(adequacy["checks"]) == {"lag1_autocorrelation", "sign_runs"}
     assert summary["preferred"] == "pendulum"
+
+
+@pytest.mark.slow
+def test_the_ping_pong_under_the_speed_law_reports_its_exponent(tmp_path):
+    """``model = "powerlaw/speed"``, ``compare = ["powerlaw"]`` (issue 13): the exponent p of
+    1 − α(v) = (1 − α)(v/v₁)^p with its interval, and the two laws compared. With the scatter
+    in both, the drift is mostly scatter: p is small and LOO cannot tell the laws apart."""
+    config = (DATA / "pingpong.toml").read_text()
+    config = config.replace('model = "powerlaw"', 'model = "powerlaw/speed"')
+    config = config.replace("compare = []", 'compare = ["powerlaw/constant"]')
+    config = config.replace("jitter_ms = {", 'restitution_scatter = { dist = "halfnormal", '
+                            "sigma = 0.02 }\njitter_ms = {")
+    (tmp_path / "speed.toml").write_text(config)
+    out = tmp_path / "speed"
+    assert main(["estimate", str(DATA / "pingpong.wav"), "--prior",
+                 str(tmp_path / "speed.toml"), "-o", str(out), "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["model"] == "powerlaw/speed"
+    p = summary["parameters"]["restitution_exponent"]
+    assert p["hdi_low"] < p["mean"] < p["hdi_high"]
+    assert -0.05 < p["mean"] < 0.2 and p["sd"] < 0.05  # far below the prior's sd of 0.5
+    row = next(r for r in summary["comparison"] if r["model"] == "powerlaw")
+    assert abs(row["elpd_loo_diff"]) < 2 * row["elpd_loo_diff_se"] + 4
+    assert "| p | exponent of the restitution's speed dependence" in (out / "report.md").read_text()
