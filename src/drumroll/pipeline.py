@@ -387,6 +387,19 @@ def _release_notes(space: ParameterSpace) -> list[str]:
             f"{' and '.join(q.key for q in fixed)} a prior to carry that uncertainty"]
 
 
+def _predicted_prior_notes(config: Config, spaces: dict[str, ParameterSpace]) -> list[str]:
+    """Which priors the set-up predicted rather than the config gave (the power law's t_B
+    from the geometry: :func:`~drumroll.inference.space.default_prior`)."""
+    notes = []
+    for model, space in spaces.items():
+        if "t_b" in space.priors and not config.has_prior("t_b"):
+            prior = space.priors["t_b"]
+            notes.append(f"{model}: t_b's prior is the set-up's prior predictive (the exact "
+                         f"pendulum from the [stick] and [priors]): lognormal with median "
+                         f"{prior.median():.4g} s and {100 * prior.sigma:.2g} % sd")
+    return notes
+
+
 def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str | os.PathLike[str],
              *, roll: int | None = None, progress: Progress | None = None,
              listener: EstimateListener | None = None, **onset_options: Any) -> Result:
@@ -557,7 +570,10 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     summary = Summary(
         model=config.model, n_onsets=len(onsets), roll=fitted.roll, n_rolls=len(fitted.sizes),
         missing_bounces=tuple(data.missing),
-        notes=(*fitted.notes, *_release_notes(main.log_posterior.space)), parameters=parameters,
+        notes=(*fitted.notes, *_release_notes(main.log_posterior.space),
+               *_predicted_prior_notes(config, {m: f.log_posterior.space
+                                                for m, f in fits.items()})),
+        parameters=parameters,
         models=models_summary, observed_flights=observed[config.model],
         fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
                for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},

@@ -46,6 +46,10 @@ from drumroll.physics.models import canonical_name, parameter_keys
 from drumroll.physics.release import tip_strikes_first
 from drumroll.quantities import DEFAULT_PRIORS, DEFAULT_VALUES, PARAMETERS, STICK_DIMENSIONS
 
+#: The parameter a [stick] section predicts: left out, the power law's t_B prior is the
+#: geometry's prior predictive rather than a flat range whose width would decide a Bayes factor.
+GEOMETRY_PREDICTS = "t_b"
+
 #: The sections of the file format read by later stages (the simulator, the sampler, …).
 SECTIONS: tuple[str, ...] = ("simulate", "sampler", "likelihood", "report")
 
@@ -206,7 +210,8 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
     if geometric and stick is None:
         raise ConfigError(f"stick: missing section (the {geometric[0]} model needs the "
                           "stick's shape and size)")
-    priors = _parse_priors(table(raw.get("priors", {}), "priors"), models)
+    priors = _parse_priors(table(raw.get("priors", {}), "priors"), models,
+                           has_stick=stick is not None)
     if stick is not None and all(k in priors for k in ("pivot", "height")):
         _check_geometry(stick, priors)
     sections = {name: _parse_section(raw[name], name)
@@ -249,7 +254,8 @@ def _parse_stick(section: dict[str, Any]) -> StickSpec:
     return StickSpec(shape=shape, **dims)
 
 
-def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str, Distribution]:
+def _parse_priors(section: dict[str, Any], models: tuple[str, ...], has_stick: bool = False
+                  ) -> dict[str, Distribution]:
     check_keys(section, PARAMETERS, "priors")
     priors = {PARAMETERS[key].name: parse_prior(value, PARAMETERS[key], f"priors.{key}")
               for key, value in section.items()}
@@ -258,6 +264,8 @@ def _parse_priors(section: dict[str, Any], models: tuple[str, ...]) -> dict[str,
             spec = PARAMETERS[key]
             if spec.name in priors:
                 continue
+            if key == GEOMETRY_PREDICTS and has_stick:
+                continue  # the geometry's prior predictive (inference.space.default_prior)
             if key in DEFAULT_PRIORS:
                 priors[spec.name] = parse_prior(DEFAULT_PRIORS[key], spec, f"priors.{key}")
                 continue

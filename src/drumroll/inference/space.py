@@ -13,7 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll.config import Config
-from drumroll.distributions import Distribution, Fixed, LogUniform
+from drumroll.distributions import Distribution, Fixed, LogNormal, LogUniform
+from drumroll.inference.prior_predictive import propagate
 from drumroll.inference.prior_table import PriorTable
 from drumroll.physics import Bounces, StickGeometry
 from drumroll.physics.models import forward_model
@@ -33,6 +34,24 @@ CONTACT = "contact"
 
 #: Stick dimensions: the internal name under which an uncertain one is sampled → its field.
 STICK_PARAMETERS = {q.name: q.field for q in STICK_DIMENSIONS.values()}
+
+
+#: Draws of the geometry's prior predictive behind a default t_B prior (its lognormal's mu and
+#: sigma then carry ~0.5 % Monte Carlo error), and their seed (the same prior every run).
+PREDICTIVE_DRAWS, PREDICTIVE_SEED = 20_000, 0
+
+
+def default_prior(config: Config, name: str) -> Distribution:
+    """The prior of a parameter the config leaves to the set-up: the power law's t_B when a
+    ``[stick]`` is given is the exact pendulum's prior predictive of t_B (what ``drumroll
+    predict`` gives), as a lognormal with the draws' mean and sd of ln t_B. A flat range would
+    make the power law's Bayes factor a statement about that range's width (issue 13)."""
+    if name != "t_b" or config.stick is None:
+        raise KeyError(name)
+    t_b = propagate(config, "pendulum", n_flights=0, n_draws=PREDICTIVE_DRAWS,
+                    seed=PREDICTIVE_SEED).bounces.t_b
+    log_t_b = np.log(t_b[np.isfinite(t_b)])
+    return LogNormal(mu=float(np.mean(log_t_b)), sigma=float(np.std(log_t_b, ddof=1)))
 
 
 @dataclass(frozen=True)
@@ -65,7 +84,9 @@ class ParameterSpace:
               ) -> ParameterSpace:
         """The space of ``model``: its physical parameters, the jitter, and ``extra_priors``."""
         forward = forward_model(model)
-        priors: dict[str, Distribution] = {name: config.priors[name] for name in forward.parameters}
+        priors: dict[str, Distribution] = {
+            name: config.priors[name] if name in config.priors else default_prior(config, name)
+            for name in forward.parameters}
         priors["jitter"] = config.priors.get("jitter", DEFAULT_JITTER_PRIOR)
         for name in (CONTACT, SCATTER):  # parts of every model, when the config asks
             if name in config.priors:

@@ -25,6 +25,7 @@ from scipy import stats
 
 from drumroll.config import parse_config
 from drumroll.distributions import Fixed, HalfNormal, Normal
+from drumroll.errors import ConfigError
 from drumroll.inference.space import DEFAULT_JITTER_PRIOR, ParameterSpace
 from drumroll.physics import StickGeometry, bounce_sequence
 from drumroll.physics.bounces import RIM_FIRST
@@ -219,3 +220,27 @@ def test_unknown_model_is_refused():
     config = _config("table1")
     with pytest.raises(ValueError, match=r"unknown model 'bouncing-ball'.*powerlaw"):
         ParameterSpace.build(config, "bouncing-ball")
+
+
+def test_the_power_laws_default_t_b_prior_is_the_geometrys_prior_predictive():
+    """Left out of a config with a [stick], t_B's prior is the exact pendulum's prior
+    predictive (issue 13), not a flat range: checked against the geometry's draws run through
+    the public forward model by hand; without a stick t_B is still required."""
+    raw = {"model": "pendulum", "compare": ["powerlaw"],
+           "stick": {"shape": "cylinder-cone", "length_mm": 348, "tip_mm": 60, "radius_mm": 7.5},
+           "priors": {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
+                      "pivot_mm": {"dist": "normal", "mu": 131, "sigma": 2},
+                      "height_mm": {"dist": "normal", "mu": 50, "sigma": 3}}}
+    prior = ParameterSpace.build(parse_config(raw), "powerlaw").priors["t_b"]
+    rng = np.random.default_rng(1)
+    pivot, height = rng.normal(0.131, 0.002, 50_000), rng.normal(0.050, 0.003, 50_000)
+    stick = StickGeometry("cylinder-cone", 0.348, 0.06, 0.0075)
+    t_b = bounce_sequence("pendulum", alpha=0.9, pivot=pivot, height=height, stick=stick,
+                          n_flights=0).t_b
+    assert prior.median() == pytest.approx(np.median(t_b), rel=2e-3)
+    assert prior.sigma == pytest.approx(np.std(np.log(t_b)), rel=0.03)
+    del raw["stick"]
+    raw["model"] = "powerlaw"
+    raw["compare"] = []
+    with pytest.raises(ConfigError, match="t_b: missing"):
+        parse_config(raw)
