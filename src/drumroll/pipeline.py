@@ -35,6 +35,13 @@ from drumroll.inference.draws import Draws
 from drumroll.inference.evidence import Evidence, choose_evidence
 from drumroll.inference.inference_data import build_draws, parameter_draws
 from drumroll.inference.likelihood import OnsetData
+from drumroll.inference.missed_impacts import (
+    EVIDENCE_ONLY_ESS,
+    missed_note,
+    missed_probabilities,
+    missed_warning,
+    shifted,
+)
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.results import (
     Adequacy,
@@ -50,6 +57,7 @@ from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.inference.space import ParameterSpace
 from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
+from drumroll.physics.models import forward_model
 from drumroll.quantities import BY_NAME
 from drumroll.workers import process_pool
 
@@ -513,6 +521,24 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                                       log_posterior))
         post_seconds += time.perf_counter() - begun
 
+    # The stick models' discrete parameter: how many impacts came before the first onset
+    # (inference.missed_impacts), each numbering fitted for its evidence alone.
+    renumbered = {}
+    if forward_model(config.model).needs_stick and settings.evidence != "none":
+        renumbered = {missed: LogPosterior.build(config, config.model, shifted(data, missed),
+                                                 settings.noise, settings.nu)
+                      for missed in range(1, settings.missed_first + 1)}
+    evidence_settings = replace(settings, sampler=replace(
+        settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
+    renumbered_log_z: dict[int, float] = {}
+
+    def keep_evidence(missed: int, output: tuple) -> None:
+        evidence = output[1]
+        renumbered_log_z[missed] = -math.inf if evidence is None else evidence.log_z
+
+    def renumbered_fit(missed: int) -> tuple:
+        return _fit, renumbered[missed], evidence_settings, seeds[config.model]
+
     if workers == 1:
         for model in models:
             output = _fit(posteriors[model], settings, seeds[model])
@@ -520,6 +546,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                 _while_sampling(listener, onsets, recording)
             finish(model, output)
             say(f"{model}: done")
+        for missed in renumbered:
+            function, *arguments = renumbered_fit(missed)
+            keep_evidence(missed, function(*arguments))
     else:
         # emcee before the workers fork, so that they share it; the figures' libraries and
         # so on after, while the workers sample.
@@ -527,10 +556,16 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         with process_pool(workers) as pool:
             futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                        for m in models}
+            futures.update({pool.submit(*renumbered_fit(missed)): missed
+                            for missed in renumbered})
             _while_sampling(listener, onsets, recording)
             for future in as_completed(futures):
-                finish(futures[future], future.result())
-                say(f"{futures[future]}: done")
+                task = futures[future]
+                if isinstance(task, int):
+                    keep_evidence(task, future.result())
+                    continue
+                finish(task, future.result())
+                say(f"{task}: done")
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
@@ -552,6 +587,10 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     parameters = main.stats
+    missed_first: tuple[float, ...] = ()
+    if renumbered and main.evidence is not None:
+        missed_first = missed_probabilities(
+            [main.evidence.log_z, *(renumbered_log_z[m] for m in sorted(renumbered))])
     model_diagnostics = {}
     evidence_entries = {}
     for m, fit in fits.items():
@@ -562,6 +601,10 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                 model_diagnostics[m] = replace(
                     model_diagnostics[m],
                     warnings=(*model_diagnostics[m].warnings, f"{m}: {warning}"))
+        missed_warned = missed_warning(m, missed_first) if m == config.model else None
+        if missed_warned:
+            model_diagnostics[m] = replace(
+                model_diagnostics[m], warnings=(missed_warned, *model_diagnostics[m].warnings))
         misfit = checked[m].misfit(m)
         if misfit:
             model_diagnostics[m] = replace(
@@ -572,7 +615,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         missing_bounces=tuple(data.missing),
         notes=(*fitted.notes, *_release_notes(main.log_posterior.space),
                *_predicted_prior_notes(config, {m: f.log_posterior.space
-                                                for m, f in fits.items()})),
+                                                for m, f in fits.items()}),
+               *([missed_note(config.model, missed_first)] if missed_first else [])),
+        missed_first_impacts=missed_first,
         parameters=parameters,
         models=models_summary, observed_flights=observed[config.model],
         fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)

@@ -311,6 +311,9 @@ class Summary(Record):
     n_onsets, roll, n_rolls, missing_bounces, notes
         The fitted roll: how many onsets, which roll of how many, the bounces not heard, and
         what the user should read before the numbers.
+    missed_first_impacts
+        P(m impacts came before the first onset | onsets), m = 0, 1, 2, under a stick model
+        (:mod:`~drumroll.inference.missed_impacts`); empty otherwise.
     parameters
         The main model's posterior summaries, by quantity key (those of ``models[model]``).
     models
@@ -344,6 +347,7 @@ class Summary(Record):
     n_rolls: int = 1
     missing_bounces: tuple[int, ...] = ()
     notes: tuple[str, ...] = ()
+    missed_first_impacts: tuple[float, ...] = ()
     parameters: dict[str, ParameterSummary] = field(default_factory=dict)
     models: dict[str, ModelSummary] = field(default_factory=dict)
     observed_flights: ObservedFlights = field(default_factory=ObservedFlights)

@@ -33,6 +33,7 @@ from drumroll.config.priors_section import parse_prior
 from drumroll.config.validate import boolean, check_keys, number, string
 from drumroll.distributions import Distribution, Fixed
 from drumroll.errors import ConfigError
+from drumroll.inference.missed_impacts import MAX_MISSED
 from drumroll.inference.posterior import NOISE_MODELS
 from drumroll.inference.sampling import SamplerSettings
 from drumroll.quantities import QUANTITIES
@@ -48,6 +49,7 @@ class EstimateSettings:
     workers: int = field(default_factory=lambda: os.cpu_count() or 1)
     noise: str = "gaussian"
     nu: Distribution = field(default_factory=lambda: Fixed(4.0))
+    missed_first: int = 0
     hdi_prob: float = 0.9
 
 
@@ -102,9 +104,16 @@ def evidence_mode(value: Any, key: str) -> str:
 
 
 def parse_likelihood(section: dict[str, Any], where: str) -> dict[str, Any]:
-    """The ``[likelihood]`` section: ``noise`` and ``nu``."""
-    check_keys(section, ("noise", "nu"), where)
+    """The ``[likelihood]`` section: ``noise``, ``nu`` and ``missed_first`` (the most
+    impacts a stick model considers missed before the first onset:
+    :mod:`~drumroll.inference.missed_impacts`)."""
+    check_keys(section, ("noise", "nu", "missed_first"), where)
     out: dict[str, Any] = {}
+    if "missed_first" in section:
+        out["missed_first"] = _integer(section["missed_first"], f"{where}.missed_first", 0)
+        if out["missed_first"] > MAX_MISSED:
+            raise ConfigError(f"{where}.missed_first: at most {MAX_MISSED} (each costs a fit of "
+                              f"the model), got {out['missed_first']}")
     if "noise" in section:
         out["noise"] = string(section["noise"], f"{where}.noise", NOISE_MODELS)
     if "nu" in section:

@@ -1,0 +1,46 @@
+"""Impacts missed before the first onset (issue 13 item 9), through the command line: the
+exact pendulum's geometry fixes t_B, so the same roll with its first impact cut off is
+recognised as starting one impact late, and the full roll as starting on time."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import pytest
+
+from drumroll.cli.main import main
+from drumroll.inference.missed_impacts import missed_probabilities
+from paths import DATA
+
+
+def test_probabilities_are_the_normalised_evidences():
+    p = missed_probabilities([10.0, 10.0 + math.log(3.0), -math.inf])
+    assert p == pytest.approx((0.25, 0.75, 0.0))
+
+
+@pytest.mark.slow
+def test_a_roll_whose_first_impact_is_cut_off_is_numbered_from_impact_one(tmp_path, capsys):
+    assert main(["onsets", str(DATA / "table2_h80.flac"), "-o", str(tmp_path / "all.csv")]) == 0
+    rows = list(csv.DictReader((tmp_path / "all.csv").open()))
+    config = (DATA / "table2_h80.toml").read_text().replace(
+        "[likelihood]\n", "[likelihood]\nmissed_first = 2\n")
+    (tmp_path / "h80.toml").write_text(config)
+    found = {}
+    for name, first in (("late", 1), ("whole", 0)):
+        with (tmp_path / f"{name}.csv").open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["time_s"])  # no bounce column: numbered 0, 1, 2, … from the first
+            writer.writerows([row["time_s"]] for row in rows[first:])
+        out = tmp_path / name
+        assert main(["estimate", str(tmp_path / f"{name}.csv"), "--prior",
+                     str(tmp_path / "h80.toml"), "-o", str(out), "-q"]) == 0
+        found[name] = json.loads((out / "summary.json").read_text())
+    printed = capsys.readouterr().out
+    late, whole = found["late"]["missed_first_impacts"], found["whole"]["missed_first_impacts"]
+    assert late[1] > 0.99 and whole[0] > 0.99
+    assert "the first onset may not be the roll's first impact" in printed
+    assert any("P(none missed)" in w for w in found["late"]["diagnostics"]["pendulum"]["warnings"])
+    assert not any("P(none missed)" in w
+                   for w in found["whole"]["diagnostics"]["pendulum"]["warnings"])
