@@ -1,14 +1,17 @@
-"""Coverage of α and t_B when the restitution scatters from bounce to bounce.
+"""Coverage of α and t_B when the restitution scatters, depends on speed, or the impacts last.
 
 Power-law rolls of 16 onsets (α ~ U(0.85, 0.93), t_B ~ U(0.2, 0.3) s, 0.1 ms timing noise) whose
-restitution scatters, α_k = α e^{ε_k} with ε_k ~ N(0, s²), each fitted by ``estimate`` twice:
-with a constant α, and with ``restitution_scatter`` in the priors (marginalised,
-:mod:`drumroll.inference.scatter`). Prints, per fit and parameter, the share of 90 % intervals
-that cover the truth (with the binomial 99 % band for that many rolls), the spread of
-(mean − truth) / sd (1 for honest error bars) and its mean.
+restitution scatters, α_k = α(v_k) e^{ε_k} with ε_k ~ N(0, s²) and 1 − α(v) = (1 − α)(v/v₁)^p
+(p = 0: constant), each impact holding the bouncer for a contact time τ_c, each fitted by
+``estimate``: with a constant α, with ``restitution_scatter`` in the priors (marginalised,
+:mod:`drumroll.inference.scatter`), and, where the truth has them, with the speed law
+(``powerlaw/speed``, scatter too) or a contact time (``contact_ms`` ~ U(0, 3), scatter too).
+Prints, per fit and parameter, the share of 90 % intervals that cover the truth (with the
+binomial 99 % band for that many rolls), the spread of (mean − truth) / sd (1 for honest error
+bars) and its mean.
 
-Usage: ``python benchmarks/scatter_coverage.py [--rolls 100] [--scatter 0.005] [--seed 1000]``
-(about 5 s per roll on one core).
+Usage: ``python benchmarks/scatter_coverage.py [--rolls 100] [--scatter 0.005]
+[--exponent 0.2] [--contact-ms 1] [--seed 1000]`` (about 5 s per roll and fit on one core).
 """
 
 from __future__ import annotations
@@ -29,19 +32,35 @@ PRIORS = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
 SCATTER_PRIOR = {"dist": "halfnormal", "sigma": 0.02}
 
 
-def configs() -> dict:
-    """The constant-α and the scattering fit, otherwise ``estimate``'s defaults."""
+CONTACT_PRIOR = {"dist": "uniform", "low": 0.0, "high": 3.0}
+
+
+def configs(exponent: float, contact_ms: float) -> dict:
+    """The constant-α and the scattering fit, the speed law's and the contact time's where
+    the truth has them, otherwise ``estimate``'s defaults."""
     base = {"model": "powerlaw", "compare": [], "sampler": {"evidence": False, "workers": 1}}
-    return {"constant": parse_config({**base, "priors": PRIORS}),
-            "scatter": parse_config({**base, "priors": {**PRIORS,
-                                                        "restitution_scatter": SCATTER_PRIOR}})}
+    scatter = {**PRIORS, "restitution_scatter": SCATTER_PRIOR}
+    fits = {"constant": parse_config({**base, "priors": PRIORS}),
+            "scatter": parse_config({**base, "priors": scatter})}
+    if exponent:
+        fits["speed"] = parse_config({**base, "model": "powerlaw/speed", "priors": scatter})
+    if contact_ms:
+        fits["contact"] = parse_config({**base, "priors": {**scatter,
+                                                           "contact_ms": CONTACT_PRIOR}})
+    return fits
 
 
-def roll(rng: np.random.Generator, scatter: float, n: int = 16) -> tuple[np.ndarray, float, float]:
-    """Onset times of one roll, and its α and t_B."""
+def roll(rng: np.random.Generator, scatter: float, exponent: float = 0.0,
+         contact_ms: float = 0.0, n: int = 16) -> tuple[np.ndarray, float, float]:
+    """Onset times of one roll, and its α and t_B (the rule written out bounce by bounce,
+    independently of :mod:`drumroll.physics.restitution`)."""
     alpha, t_b = rng.uniform(0.85, 0.93), rng.uniform(0.2, 0.3)
-    u = np.cumsum(np.log(alpha) + rng.normal(0.0, scatter, n - 1))
-    times = 0.5 + np.concatenate(([0.0], np.cumsum(t_b * np.exp(u)))) + rng.normal(0, 1e-4, n)
+    eps = rng.normal(0.0, scatter, n - 1)
+    u, before = np.empty(n - 1), 0.0
+    for k in range(n - 1):
+        before = u[k] = before + np.log(1.0 - (1.0 - alpha) * np.exp(exponent * before)) + eps[k]
+    impacts = np.concatenate(([0.0], np.cumsum(t_b * np.exp(u)))) + 1e-3 * contact_ms * np.arange(n)
+    times = 0.5 + impacts + rng.normal(0, 1e-4, n)
     return times, alpha, t_b
 
 
@@ -49,15 +68,18 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--rolls", type=int, default=100)
     ap.add_argument("--scatter", type=float, default=0.005)
+    ap.add_argument("--exponent", type=float, default=0.0, help="the truth's speed-law p")
+    ap.add_argument("--contact-ms", type=float, default=0.0, help="the truth's contact time")
     ap.add_argument("--seed", type=int, default=1000)
     args = ap.parse_args()
-    fits = configs()
+    fits = configs(args.exponent, args.contact_ms)
     found = {(f, q): [] for f in fits for q in ("alpha", "t_b")}
     truths = {"alpha": [], "t_b": []}
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "roll.csv"
         for i in range(args.rolls):
-            times, alpha, t_b = roll(np.random.default_rng(args.seed + i), args.scatter)
+            times, alpha, t_b = roll(np.random.default_rng(args.seed + i), args.scatter,
+                                     args.exponent, args.contact_ms)
             path.write_text("time_s\n" + "".join(f"{t:.9f}\n" for t in times))
             truths["alpha"].append(alpha)
             truths["t_b"].append(t_b)
@@ -68,8 +90,8 @@ def main() -> None:
                     found[name, q].append((p.mean, p.sd, p.hdi_low, p.hdi_high))
     n = args.rolls
     lo, hi = binom.ppf(0.005, n, 0.9) / n, binom.ppf(0.995, n, 0.9) / n
-    print(f"{n} rolls, scatter {args.scatter:g}; 90 % coverage's binomial 99 % band "
-          f"[{lo:.2f}, {hi:.2f}]")
+    print(f"{n} rolls, scatter {args.scatter:g}, exponent {args.exponent:g}, contact "
+          f"{args.contact_ms:g} ms; 90 % coverage's binomial 99 % band [{lo:.2f}, {hi:.2f}]")
     print(f"{'fit':9s} {'param':6s} {'coverage':>8s} {'spread of z':>11s} {'mean z':>7s}")
     for (name, q), rows in found.items():
         v, truth = np.array(rows), np.array(truths[q])
