@@ -15,8 +15,10 @@ import pytest
 from configs import BALL_CONFIG
 from drumroll.cli.main import main
 from drumroll.config import parse_config
+from drumroll.errors import ConfigError
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.settings import estimate_settings
 
 ALPHA, T_B, CONTACT, N = 0.9, 0.25, 1e-3, 21
 WITH_CONTACT = BALL_CONFIG.replace(
@@ -47,6 +49,42 @@ def test_impacts_are_the_flights_plus_one_contact_time_per_impact_before():
     assert valid.all()
     np.testing.assert_allclose(impacts, want, rtol=1e-12)
     np.testing.assert_allclose(posterior(x), posterior.reference(x), rtol=1e-10)
+
+
+@pytest.mark.parametrize("model", ["powerlaw", "pendulum/speed"])
+def test_hertzian_contact_lasts_longer_as_the_impacts_slow(model):
+    """``[likelihood] contact = "hertz"``: τ_j = τ_c (v_j / v_1)^(−1/5), written out here
+    from each flight's launch speed (the public forward model's speed ratios), in the
+    sampler's path and the public one alike."""
+    raw = {"model": model, "likelihood": {"contact": "hertz"},
+           "priors": {"alpha": {"dist": "uniform", "low": 0.5, "high": 1},
+                      "t_b": {"dist": "uniform", "low": 0.01, "high": 2},
+                      "contact_ms": {"dist": "uniform", "low": 0, "high": 3},
+                      "jitter_ms": 0.1, "pivot_mm": 131, "height_mm": 80,
+                      "restitution_exponent": 0.3}}
+    if model != "powerlaw":
+        raw["stick"] = {"shape": "cylinder-cone", "length_mm": 348, "tip_mm": 60,
+                        "radius_mm": 7.5}
+    posterior = LogPosterior.build(parse_config(raw), model, OnsetData.from_arrays(roll()))
+    x = np.array([[0.9, 0.25, 1e-3]]) if model == "powerlaw" else np.array([[0.9, 1e-3]])
+    impacts, valid = posterior.space.impacts(x, N - 1)
+    values = posterior.space.values(x)
+    bounces = posterior.space.bounces_from_values(values, N - 1)
+    speeds = np.concatenate(([1.0], bounces.speed_ratios[0]))  # impact j arrives at r_j
+    delays = np.concatenate(([0.0], np.cumsum(1e-3 * speeds[:-1] ** -0.2)))
+    assert valid.all()
+    np.testing.assert_allclose(impacts[0], bounces.impacts[0] + delays, rtol=1e-12)
+    np.testing.assert_allclose(posterior.space.impact_times(values, N - 1)[0], impacts[0],
+                               rtol=1e-12)
+    assert np.all(np.diff(np.diff(delays)) > 0)  # each contact longer than the last
+    np.testing.assert_allclose(posterior(x), posterior.reference(x), rtol=1e-10)
+
+
+def test_an_unknown_contact_law_is_one_line():
+    raw = {"model": "powerlaw", "likelihood": {"contact": "plastic"},
+           "priors": {"alpha": 0.9, "t_b": 0.2}}
+    with pytest.raises(ConfigError, match=r"likelihood\.contact"):
+        estimate_settings(parse_config(raw))
 
 
 @pytest.fixture(scope="module")

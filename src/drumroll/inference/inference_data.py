@@ -79,7 +79,7 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
             np.broadcast_to(sd, t0.shape))
     variables["t0_s"] = t0
     variables = {k: np.asarray(v).reshape(shape) for k, v in variables.items()}
-    impacts = space.with_contact(bounces.impacts, values.get("contact"))
+    impacts = space.with_contact(bounces.impacts, values.get("contact"), bounces.speed_ratios)
     return variables, impacts.reshape((*shape, -1)), t0.reshape(shape)
 
 

@@ -36,6 +36,7 @@ from drumroll.errors import ConfigError
 from drumroll.inference.missed_impacts import MAX_MISSED
 from drumroll.inference.posterior import NOISE_MODELS
 from drumroll.inference.sampling import SamplerSettings
+from drumroll.physics.contact import CONTACT_LAWS
 from drumroll.quantities import QUANTITIES
 
 
@@ -50,6 +51,7 @@ class EstimateSettings:
     noise: str = "gaussian"
     nu: Distribution = field(default_factory=lambda: Fixed(4.0))
     missed_first: int = 0
+    contact: str = "constant"
     hdi_prob: float = 0.9
 
 
@@ -104,11 +106,14 @@ def evidence_mode(value: Any, key: str) -> str:
 
 
 def parse_likelihood(section: dict[str, Any], where: str) -> dict[str, Any]:
-    """The ``[likelihood]`` section: ``noise``, ``nu`` and ``missed_first`` (the most
+    """The ``[likelihood]`` section: ``noise``, ``nu``, ``missed_first`` (the most
     impacts a stick model considers missed before the first onset:
-    :mod:`~drumroll.inference.missed_impacts`)."""
-    check_keys(section, ("noise", "nu", "missed_first"), where)
+    :mod:`~drumroll.inference.missed_impacts`) and ``contact`` (the contact time's law,
+    :mod:`~drumroll.physics.contact`)."""
+    check_keys(section, ("noise", "nu", "missed_first", "contact"), where)
     out: dict[str, Any] = {}
+    if "contact" in section:
+        out["contact"] = string(section["contact"], f"{where}.contact", CONTACT_LAWS)
     if "missed_first" in section:
         out["missed_first"] = _integer(section["missed_first"], f"{where}.missed_first", 0)
         if out["missed_first"] > MAX_MISSED:

@@ -17,6 +17,8 @@ from drumroll.distributions import Distribution, Fixed, LogNormal, LogUniform
 from drumroll.inference.prior_predictive import propagate
 from drumroll.inference.prior_table import PriorTable
 from drumroll.physics import Bounces, StickGeometry
+from drumroll.physics.contact import CONTACT_LAWS, contact_delays
+from drumroll.physics.model import alpha_of
 from drumroll.physics.models import forward_model
 from drumroll.physics.release import rim_strikes_first, tip_contact_only
 from drumroll.quantities import STICK_DIMENSIONS
@@ -164,17 +166,32 @@ class ParameterSpace:
     def impact_times(self, v: dict[str, NDArray], n_flights: int) -> NDArray:
         """Impact times τ_0 … τ_N after the first impact through the full forward model
         (:meth:`bounces_from_values`), contact times included; NaN rows where invalid."""
-        return self.with_contact(self.bounces_from_values(v, n_flights).impacts,
-                                  v.get(CONTACT))
+        bounces = self.bounces_from_values(v, n_flights)
+        return self.with_contact(bounces.impacts, v.get(CONTACT), bounces.speed_ratios)
 
-    @staticmethod
-    def with_contact(impacts: NDArray, contact: NDArray | float | None) -> NDArray:
-        """τ_m + m τ_c: every impact before impact m held the stick on the head for τ_c
-        (physics.md; constant contact time)."""
+    @property
+    def contact_law(self) -> str:
+        """``[likelihood] contact``: how the contact time changes with the impact speed
+        (:mod:`drumroll.physics.contact`)."""
+        return self.config.section("likelihood", {}).get("contact", CONTACT_LAWS[0])
+
+    def with_contact(self, impacts: NDArray, contact: NDArray | float | None,
+                     speed_ratios: NDArray | None = None) -> NDArray:
+        """The impacts delayed by every earlier impact's contact time (physics.md): m τ_c,
+        or under the Hertzian law each τ_j scaled by the impact's speed (``speed_ratios``
+        r_1 … r_N, needed then)."""
         if contact is None:
             return impacts
-        steps = np.arange(impacts.shape[-1], dtype=float)
-        return impacts + np.reshape(np.asarray(contact, float), (-1, 1)) * steps
+        hertz = self.contact_law == "hertz"
+        return impacts + contact_delays(contact, impacts.shape[-1],
+                                        speed_ratios if hertz else None)
+
+    def _speed_ratios(self, values: dict[str, NDArray | float], n_flights: int
+                      ) -> NDArray | None:
+        """r_1 … r_N of the sampler's rows where the Hertzian contact law needs them."""
+        if CONTACT not in self.priors or self.contact_law != "hertz":
+            return None
+        return self.forward.law.speed_ratios(alpha_of(values), values, n_flights)[0]
 
     def bounces_from_values(self, v: dict[str, NDArray], n_flights: int) -> Bounces:
         """Run the forward model on parameter values from :meth:`values`."""
@@ -214,7 +231,8 @@ class ParameterSpace:
             impacts = np.broadcast_to(impacts, (x.shape[0], n_flights + 1))
             valid = np.broadcast_to(valid, (x.shape[0],))
         if CONTACT in self.priors:
-            impacts = self.with_contact(impacts, self.value(x, CONTACT))
+            impacts = self.with_contact(impacts, self.value(x, CONTACT),
+                                        self._speed_ratios(values, n_flights))
         return impacts, valid
 
     def impacts_and_slopes(self, x: NDArray, n_flights: int
@@ -235,7 +253,8 @@ class ParameterSpace:
         impacts = np.zeros((x.shape[0], n_flights + 1))
         np.cumsum(flights, axis=1, out=impacts[:, 1:])
         if CONTACT in self.priors:
-            impacts = self.with_contact(impacts, self.value(x, CONTACT))
+            impacts = self.with_contact(impacts, self.value(x, CONTACT),
+                                        self._speed_ratios(values, n_flights))
         return impacts, slopes, propagation, np.broadcast_to(valid, shape[:1])
 
     def _tip_first(self, values: dict[str, NDArray | float]) -> NDArray | bool:
