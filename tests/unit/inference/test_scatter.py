@@ -189,3 +189,34 @@ def test_batch_one_point_and_reference_paths_agree(model):
 def test_scatter_with_student_t_noise_is_a_config_error():
     with pytest.raises(ConfigError, match="restitution_scatter"):
         _posterior("powerlaw", noise="student-t")
+
+
+def _written_out(data: OnsetData, slopes: np.ndarray, jitter, scatter, propagation=None):
+    """Σ = diag(σ² + s_i²) + s² G Gᵀ with G_ij = (C_{k_i} − C_{j−1}) / P_j built entry by
+    entry (the module's O(n²) sums never form G)."""
+    rows, k_max = slopes.shape
+    carried = np.ones((rows, k_max)) if propagation is None else np.cumprod(propagation, axis=1)
+    running = np.zeros((rows, k_max + 1))
+    running[:, 1:] = np.cumsum(slopes * carried, axis=1)
+    g = np.zeros((rows, data.n_onsets, k_max))
+    for i, k in enumerate(data.bounces):
+        for j in range(1, k + 1):
+            g[:, i, j - 1] = (running[:, k] - running[:, j - 1]) / carried[:, j - 1]
+    covariance = np.asarray(scatter)[:, None, None] ** 2 * g @ g.transpose(0, 2, 1)
+    i = np.arange(data.n_onsets)
+    covariance[:, i, i] += np.asarray(jitter)[:, None] ** 2 + data.sigmas**2
+    return covariance
+
+
+@pytest.mark.parametrize("law", ["constant", "speed"])
+def test_covariance_equals_g_g_transpose_written_out(law):
+    rng = np.random.default_rng(3)
+    bounces = np.setdiff1d(np.arange(21), [6, 11])
+    data = OnsetData.from_arrays(np.arange(bounces.size) * 0.1,
+                                 rng.uniform(0, 1e-4, bounces.size), bounces)
+    slopes = 0.25 * 0.9 ** np.arange(1, 21)[None, :] * rng.uniform(0.9, 1.1, (3, 20))
+    propagation = None if law == "constant" else rng.uniform(0.9, 1.0, (3, 20))
+    jitter, scatter = np.array([1e-4, 2e-4, 3e-4]), np.array([0.003, 0.01, 0.0])
+    np.testing.assert_allclose(onset_covariance(data, slopes, jitter, scatter, propagation),
+                               _written_out(data, slopes, jitter, scatter, propagation),
+                               rtol=1e-12, atol=1e-22)
