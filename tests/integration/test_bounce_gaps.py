@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,6 +35,7 @@ from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.results import Onset, Summary
 from drumroll.onsets import OnsetTable
 from drumroll.pipeline import choose_roll, estimate
+from drumroll.reporting.markdown import render_blocks
 from drumroll.reporting.outputs import load_posteriors
 from drumroll.reporting.report import onsets_section, render_report
 from tests.unit.inference.test_posterior import _config, _points
@@ -375,7 +377,7 @@ def test_runs_files_take_a_roll_per_run(tmp_path, capsys):
 # -- the report on its own -----------------------------------------------------------------------
 def test_report_notes_and_onset_table_from_a_summary():
     onsets = (Onset(1.0, 0.0, 0), Onset(1.4, 0.0, 1), Onset(1.95, 0.0, 3))
-    lines = onsets_section(onsets)
+    lines = render_blocks(onsets_section(onsets), Path("."))
     assert "| 1 | 1.400000 | 400.000 |" in lines
     assert "| 3 | 1.950000 | — (after a gap) |" in lines
     text = render_report(Summary(

@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
             write_outputs(result, out_dir, overwrite=args.force, truths=truths,
                           workers=args.workers, drawer=drawer)
     print(terminal_table(result))
-    print(f"\nresults in {out_dir}/ (report.md, summary.json, posterior.nc, figures)")
+    print(f"\nresults in {out_dir}/ (report.md, report.html, summary.json, posterior.nc, figures)")
     return 0
 
 

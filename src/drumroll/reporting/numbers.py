@@ -3,6 +3,12 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
+
+from drumroll.reporting.document import Content, Number, content, number, plain_text, pointer
+
+if TYPE_CHECKING:
+    from drumroll.inference.results import ModelAverage
 
 
 def error_decimals(err: float, significant: int | None = None) -> int:
@@ -58,17 +64,41 @@ def format_value_error(value: float, err: float, significant: int | None = None,
     return f"{round(value / step) * step:.0f} ± {round(err / step) * step:.0f}{suffix}"
 
 
+def value_error_number(value: float, err: float, source: str | None = None,
+                       error_source: str | None = None, significant: int | None = None
+                       ) -> Number:
+    """``value ± err`` as :func:`format_value_error` writes it, as a report's
+    :class:`~drumroll.reporting.document.Number` (the error kept only where it is shown)."""
+    text = format_value_error(value, err, significant)
+    shown = " ± " in text
+    return number(value, text, source, error=err if shown else None,
+                  error_source=error_source if shown else None)
 
-def model_average_text(average) -> str | None:
-    """One line for the stacking-weighted α and t_B (:class:`~drumroll.inference.results.
-    ModelAverage`), e.g. ``α = 0.9002 ± 0.0004, t_B = 0.19908 ± 0.00010 s (stacking weights:
-    pendulum 0.77, small-angle 0.23, powerlaw 0.00)``; None without one."""
+
+def model_average_content(average: ModelAverage | None) -> Content | None:
+    """The stacking-weighted α and t_B (:class:`~drumroll.inference.results.ModelAverage`)
+    as report content, each number naming its place in ``summary.json``; None without
+    one."""
     if average is None or not average.parameters:
         return None
-    parts = []
+    parts: list[Content] = []
     for name, symbol, unit in (("alpha", "α", ""), ("t_b", "t_B", " s")):
         p = average.parameters.get(name)
         if p is not None and p.mean is not None and p.sd is not None:
-            parts.append(f"{symbol} = {format_value_error(p.mean, p.sd)}{unit}")
-    weights = ", ".join(f"{m} {w:.2f}" for m, w in average.weights.items())
-    return f"{', '.join(parts)} (stacking weights: {weights})"
+            source = pointer("model_average", "parameters", name)
+            parts.append((f"{symbol} = ", value_error_number(
+                p.mean, p.sd, f"{source}/mean", f"{source}/sd"), unit))
+    weights: list[Content] = [
+        (f"{m} ", number(w, f"{w:.2f}", pointer("model_average", "weights", m)))
+        for m, w in average.weights.items()]
+    joined = content(*[(", " if i else "", part) for i, part in enumerate(parts)])
+    listed = content(*[(", " if i else "", part) for i, part in enumerate(weights)])
+    return content(joined, " (stacking weights: ", listed, ")")
+
+
+def model_average_text(average: ModelAverage | None) -> str | None:
+    """One line for the stacking-weighted α and t_B (:class:`~drumroll.inference.results.
+    ModelAverage`), e.g. ``α = 0.9002 ± 0.0004, t_B = 0.19908 ± 0.00010 s (stacking weights:
+    pendulum 0.77, small-angle 0.23, powerlaw 0.00)``; None without one."""
+    parts = model_average_content(average)
+    return None if parts is None else plain_text(parts)

@@ -2,7 +2,7 @@
 (and, with a :class:`FigureDrawer` listening to the estimate, while it is still running).
 
 An estimate's outputs are the data files of :data:`DATA_FILES` (``summary.json``,
-``posterior.nc``, ``report.md``) and the figures of
+``posterior.nc``, ``report.md``, ``report.html``) and the figures of
 :data:`~drumroll.reporting.figures.FIGURES`, each registered once with its file name and
 writer. Everything is first written into a hidden staging folder inside the output folder and
 then renamed into place file by file, so an interrupted run (Ctrl-C included) or a disk that
@@ -52,11 +52,13 @@ __all__ = ["DATA_FILES", "DataFile", "FigureDrawer", "check_outputs", "load_post
 @dataclass(frozen=True)
 class DataFile:
     """One data file of an estimate: its name and its writer, called with the result, the
-    path to write and the figures written (the report links them)."""
+    path to write and the figures written (a report links or embeds them: it is written
+    after the figures, ``after_figures``)."""
 
     key: str
     file: str
     write: Callable[[Any, Path, dict[str, Path]], Any]
+    after_figures: bool = False
 
 
 def _summary(result: Any, path: Path, figures: dict[str, Path]) -> Path:
@@ -72,12 +74,14 @@ def _report(result: Any, path: Path, figures: dict[str, Path]) -> Path:
     return write_report(path, result.summary, figures, overwrite=True)
 
 
-#: The data files, by key, in the order they are written (the report last: it links the
-#: figures).
+#: The data files, by key, in the order they are written (the reports last: they link or
+#: embed the figures). ``report.html`` is the same document as ``report.md``, one page with
+#: the figures embedded.
 DATA_FILES: dict[str, DataFile] = {d.key: d for d in (
     DataFile("summary", "summary.json", _summary),
     DataFile("posterior", "posterior.nc", _posterior),
-    DataFile("report", "report.md", _report),
+    DataFile("report", "report.md", _report, after_figures=True),
+    DataFile("report_html", "report.html", _report, after_figures=True),
 )}
 
 
@@ -329,13 +333,15 @@ def _write_staged(result: Any, inputs: FigureInputs, figures: dict[str, str], st
         if pool is not None:
             futures.update({key: pool.submit(_draw_figure, key, inputs, staging / figures[key])
                             for key in order if key not in futures})
-        for data in list(DATA_FILES.values())[:-1]:
-            _write_data(data, result, staging / data.file, {})
+        for data in DATA_FILES.values():
+            if not data.after_figures:
+                _write_data(data, result, staging / data.file, {})
         for key in order:
             drawn[key] = (futures[key].result() if pool is not None
                           else _draw_figure(key, inputs, staging / figures[key]))
-    report = DATA_FILES["report"]
-    _write_data(report, result, staging / report.file, {k: drawn[k] for k in figures})
+    for data in DATA_FILES.values():
+        if data.after_figures:
+            _write_data(data, result, staging / data.file, {k: drawn[k] for k in figures})
     written = {}
     # The commit point: a Ctrl-C or SIGTERM whose exception was swallowed (raised in a
     # garbage collector's callback) must not let the outputs through.

@@ -1,11 +1,17 @@
-"""``report.md``: the result of ``drumroll estimate`` as a physicist would write it up.
+"""The report of ``drumroll estimate`` as a physicist would write it up: one
+:class:`~drumroll.reporting.document.Document`, written as ``report.md`` and ``report.html``.
 
-Sections: notes on the onsets (other rolls in the recording, bounces that were not heard),
-the parameters of the chosen model (mean ± sd rounded to the error, the highest-
-density interval with the same decimals, R-hat and effective sample sizes), the model
-comparison with its verdict, the sampler diagnostics in plain words, the figures (relative
-links, so the folder can be moved or zipped as a whole), and, folded away, the onset times
-and the configuration used.
+Sections, in reading order: notes on the onsets (other rolls in the recording, bounces that
+were not heard), a model that does not describe the onsets and every warning (all before
+any number), the headline result, the parameters of the chosen model (mean ± sd rounded to
+the error, the highest-density interval with the same decimals, R-hat and effective sample
+sizes), the model comparison with its verdict, each model's adequacy checks, the sampler
+diagnostics in plain words, the figures with their captions, and, folded away, the onset
+times and the configuration used.
+
+Every number of a table (and of the headline) is a
+:class:`~drumroll.reporting.document.Number` that names its place in ``summary.json``
+(a JSON pointer: ``/parameters/alpha/mean``), so the HTML page can be checked against it.
 
 Sign conventions of the comparison (the summary's contract): ``elpd_loo_diff`` and
 ``log_bayes_factor`` are *main model − model*, so positive numbers mean "better than the
@@ -31,8 +37,34 @@ from drumroll.inference.results import (
 from drumroll.onsets.table import single_flights
 from drumroll.physics.models import MODELS
 from drumroll.quantities import DERIVED, DRAW_DERIVED, QUANTITIES, report_order
+from drumroll.reporting.document import (
+    Block,
+    BulletList,
+    Callout,
+    Code,
+    CodeBlock,
+    Content,
+    Details,
+    Document,
+    Figure,
+    Heading,
+    Inline,
+    Paragraph,
+    Strong,
+    Table,
+    TableNote,
+    content,
+    number,
+    pointer,
+)
 from drumroll.reporting.figures import FIGURES
-from drumroll.reporting.numbers import error_decimals, format_value_error, model_average_text
+from drumroll.reporting.html import render_html
+from drumroll.reporting.markdown import render_markdown
+from drumroll.reporting.numbers import (
+    error_decimals,
+    format_value_error,
+    model_average_content,
+)
 from drumroll.reporting.plot_style import model_name
 
 
@@ -41,11 +73,6 @@ def _finite(value: Any) -> bool:
         return value is not None and math.isfinite(float(value))
     except (TypeError, ValueError):
         return False
-
-
-def _cell(text: Any) -> str:
-    """Text safe inside a Markdown table cell."""
-    return str(text).replace("|", "\\|").replace("\n", " ")
 
 
 def unit_of(key: str) -> str:
@@ -94,264 +121,362 @@ def format_estimate(stats: ParameterSummary) -> tuple[str, str]:
     return estimate.replace("-", "−"), interval
 
 
-def _rhat_text(value: float | None, limit: float) -> str:
+def estimate_content(stats: ParameterSummary, source: str) -> tuple[Content, Content]:
+    """:func:`format_estimate`'s mean ± sd and interval as report content, each number
+    naming its place (``source``: the summary's pointer, e.g. ``/parameters/alpha``)."""
+    estimate, interval = format_estimate(stats)
+    if estimate == "—":
+        mean_cell: Content = ("—",)
+    else:
+        shown = " ± " in estimate
+        mean_cell = (number(stats.mean, estimate, f"{source}/mean",
+                            error=stats.sd if shown else None,
+                            error_source=f"{source}/sd" if shown else None),)
+    if interval == "—":
+        return mean_cell, ("—",)
+    low, high = interval.split(" … ")
+    return mean_cell, (number(stats.hdi_low, low, f"{source}/hdi_low"), " … ",
+                       number(stats.hdi_high, high, f"{source}/hdi_high"))
+
+
+def _rhat_content(value: float | None, limit: float, source: str) -> Content:
     if not _finite(value):
-        return "—"
-    value = float(value)
-    return f"**{value:.4f}** ⚠" if value >= limit else f"{value:.4f}"
+        return ("—",)
+    shown = number(value, f"{float(value):.4f}", source)
+    return (Strong((shown,)), " ⚠") if float(value) >= limit else (shown,)
 
 
-def _ess_text(bulk: float | None, tail: float | None, target: float) -> str:
-    def one(v: float | None) -> str:
-        return f"{float(v):.0f}" if _finite(v) else "—"
-    text = f"{one(bulk)} / {one(tail)}"
+def _ess_content(bulk: float | None, tail: float | None, target: float, source: str
+                 ) -> Content:
+    def one(v: float | None, key: str) -> Inline:
+        return number(v, f"{float(v):.0f}", f"{source}/{key}") if _finite(v) else "—"
+
     low = [v for v in (bulk, tail) if _finite(v) and float(v) < target]
-    return f"{text} ⚠" if low else text
+    return (one(bulk, "ess_bulk"), " / ", one(tail, "ess_tail"), " ⚠" if low else "")
 
 
 def parameter_table(parameters: dict[str, ParameterSummary], model: str = "",
-                    targets: Diagnostics | None = None) -> list[str]:
-    """Markdown lines of the parameter table (sampled first, then derived quantities); R-hat
-    and ESS are flagged against the sampler's targets (``targets``: the model's diagnostics)."""
+                    targets: Diagnostics | None = None,
+                    source: str = "/parameters") -> tuple[Block, ...]:
+    """The parameter table (sampled first, then derived quantities); R-hat and ESS are
+    flagged against the sampler's targets (``targets``: the model's diagnostics). Its numbers
+    point into ``source`` (the summaries' place in ``summary.json``)."""
     if not parameters:
-        return ["No parameter summary was produced."]
+        return (Paragraph(("No parameter summary was produced.",)),)
     targets = targets or Diagnostics()
     first = next(iter(parameters.values()))
-    lines = [f"| parameter | meaning | mean ± sd | {100 * first.hdi_prob:.0f} % HDI | R-hat | "
-             "ESS bulk / tail |", "|---|---|---|---|---:|---:|"]
+    header = (("parameter",), ("meaning",), ("mean ± sd",),
+              (f"{100 * first.hdi_prob:.0f} % HDI",), ("R-hat",), ("ESS bulk / tail",))
     sampled = MODELS[model].parameters if model in MODELS else ()
+    rows = []
     for key in report_order(list(parameters)):
         stats = parameters[key]
-        estimate, interval = format_estimate(stats)
+        here = pointer_join(source, key)
+        estimate, interval = estimate_content(stats, here)
         meaning = describe(key)
         if (key in DERIVED and DERIVED[key].name not in sampled) or key in DRAW_DERIVED:
             meaning += " (derived)"
-        lines.append(f"| {_cell(parameter_heading(key))} | {_cell(meaning)} | {estimate} | "
-                     f"{interval} | {_rhat_text(stats.r_hat, targets.max_r_hat)} | "
-                     f"{_ess_text(stats.ess_bulk, stats.ess_tail, targets.target_ess)} |")
-    lines += ["", f"R-hat of {targets.max_r_hat} or more, or fewer than "
-              f"{targets.target_ess:.0f} effective samples (the sampler's targets), are marked "
-              "⚠: run the sampler longer before trusting the last digit."]
-    return lines
+        rows.append(((parameter_heading(key),), (meaning,), estimate, interval,
+                     _rhat_content(stats.r_hat, targets.max_r_hat, f"{here}/r_hat"),
+                     _ess_content(stats.ess_bulk, stats.ess_tail, targets.target_ess, here)))
+    note = (f"R-hat of {targets.max_r_hat} or more, or fewer than {targets.target_ess:.0f} "
+            "effective samples (the sampler's targets), are marked ⚠: run the sampler longer "
+            "before trusting the last digit.")
+    return (Table(header, tuple(rows), (None, None, None, None, "right", "right"),
+                  notes=(TableNote((note,)),)),)
 
 
-def _signed(value: Any, err: Any) -> str:
+def pointer_join(base: str, *parts: str | int) -> str:
+    """``base`` (a JSON pointer) extended by ``parts``."""
+    return base + pointer(*parts)
+
+
+def _signed(value: Any, err: Any, source: str, error_source: str | None = None) -> Content:
     if not _finite(value):
-        return "—"
+        return ("—",)
     if _finite(err) and float(err) > 0:
-        return format_value_error(float(value), float(err)).replace("-", "−")
-    return f"{float(value):.1f}".replace("-", "−")
+        text = format_value_error(float(value), float(err)).replace("-", "−")
+        shown = " ± " in text
+        return (number(value, text, source, error=err if shown else None,
+                       error_source=error_source if shown else None),)
+    return (number(value, f"{float(value):.1f}".replace("-", "−"), source),)
 
 
-def comparison_section(summary: Summary) -> list[str]:
-    """Markdown lines of the model comparison: table, preferred model and verdict."""
+def _model(model: str) -> Content:
+    """``exact pendulum (`pendulum`)``."""
+    return (f"{model_name(model)} (", Code(model), ")")
+
+
+def comparison_section(summary: Summary) -> tuple[Block, ...]:
+    """The model comparison: table, preferred model and verdict."""
     rows = summary.comparison
-    lines = ["## Model comparison", ""]
+    blocks: list[Block] = [Heading(2, ("Model comparison",))]
     if rows:
         has_bf = any(_finite(r.log_bayes_factor) for r in rows)
-        header = "| compared with | Δelpd_loo (main − model) |"
-        rule = "|---|---:|"
         has_range = any(_finite(r.log_bayes_factor_half_width) for r in rows)
+        header: list[Content] = [("compared with",), ("Δelpd_loo (main − model)",)]
+        align: list[Any] = [None, "right"]
         if has_bf:
-            header += " ln B (ln Z_main − ln Z_model) |"
-            rule += "---:|"
+            header.append(("ln B (ln Z_main − ln Z_model)",))
+            align.append("right")
         if has_range:
-            header += " ln B, priors only one model has half / twice as wide |"
-            rule += "---:|"
-        lines += [header, rule]
-        reference = f"| {_cell(f'**{model_name(summary.model)} (`{summary.model}`)**, main')} | "
-        lines.append(reference + "0 (reference) |" + (" 0 (reference) |" if has_bf else "")
-                     + (" |" if has_range else ""))
-        for row in rows:
-            name = f"{model_name(row.model)} (`{row.model}`)"
-            line = f"| {_cell(name)} | {_signed(row.elpd_loo_diff, row.elpd_loo_diff_se)} |"
+            header.append(("ln B, priors only one model has half / twice as wide",))
+            align.append("right")
+        reference: list[Content] = [(Strong(_model(summary.model)), ", main"),
+                                    ("0 (reference)",)]
+        if has_bf:
+            reference.append(("0 (reference)",))
+        if has_range:
+            reference.append(())
+        cells = [tuple(reference)]
+        for i, row in enumerate(rows):
+            here = pointer("comparison", i)
+            line: list[Content] = [_model(row.model), _signed(
+                row.elpd_loo_diff, row.elpd_loo_diff_se, f"{here}/elpd_loo_diff",
+                f"{here}/elpd_loo_diff_se")]
             if has_bf:
-                line += f" {_signed(row.log_bayes_factor, row.log_bayes_factor_err)} |"
+                line.append(_signed(row.log_bayes_factor, row.log_bayes_factor_err,
+                                    f"{here}/log_bayes_factor", f"{here}/log_bayes_factor_err"))
             if has_range:
                 if _finite(row.log_bayes_factor_half_width):
                     flag = " (prior-dominated: not weighed)" if row.prior_dominated else ""
-                    line += (f" {_signed(row.log_bayes_factor_half_width, None)} / "
-                             f"{_signed(row.log_bayes_factor_double_width, None)}{flag} |")
+                    line.append(content(
+                        _signed(row.log_bayes_factor_half_width, None,
+                                f"{here}/log_bayes_factor_half_width"), " / ",
+                        _signed(row.log_bayes_factor_double_width, None,
+                                f"{here}/log_bayes_factor_double_width"), flag))
                 else:
-                    line += " — |"
-            lines.append(line)
-        lines += ["", "Positive numbers favour the main model: it predicts the onsets better "
-                  "(elpd) or is more probable given the data (ln B). A preference is claimed "
-                  "only when Δelpd exceeds both 4 and twice its standard error, or |ln B| "
-                  "exceeds both 1 and twice its error, without the other measure disagreeing. "
-                  "A Bayes factor that moves by more than 1 when the priors of the parameters "
-                  "only one of the two models has are half or twice as wide (either model's, "
-                  "or both) says more about those priors than about the data: it is "
-                  "prior-dominated and not weighed.",
-                  ""]
+                    line.append(("—",))
+            cells.append(tuple(line))
+        note = ("Positive numbers favour the main model: it predicts the onsets better "
+                "(elpd) or is more probable given the data (ln B). A preference is claimed "
+                "only when Δelpd exceeds both 4 and twice its standard error, or |ln B| "
+                "exceeds both 1 and twice its error, without the other measure disagreeing. "
+                "A Bayes factor that moves by more than 1 when the priors of the parameters "
+                "only one of the two models has are half or twice as wide (either model's, "
+                "or both) says more about those priors than about the data: it is "
+                "prior-dominated and not weighed.")
+        blocks.append(Table(tuple(header), tuple(cells), tuple(align),
+                            notes=(TableNote((note,)),)))
     else:
-        lines += ["Only one model was fitted: nothing to compare.", ""]
+        blocks.append(Paragraph(("Only one model was fitted: nothing to compare.",)))
     if summary.preferred:
-        lines.append(f"**Preferred model:** {model_name(summary.preferred)} "
-                     f"(`{summary.preferred}`).")
+        blocks.append(Paragraph((Strong(("Preferred model:",)), " ",
+                                 *_model(summary.preferred), ".")))
     elif rows:
-        lines.append("**Preferred model:** none (the verdict below says why).")
+        blocks.append(Paragraph((Strong(("Preferred model:",)),
+                                 " none (the verdict below says why).")))
     if summary.verdict:
-        lines += ["", summary.verdict]
-    averaged = model_average_text(summary.model_average)
+        blocks.append(Paragraph((summary.verdict,)))
+    averaged = model_average_content(summary.model_average)
     if averaged:
-        lines += ["", f"**One α for a table**, the models averaged by how well each predicts "
-                  f"the onsets left out (stacking on PSIS-LOO): {averaged}. Each model's own "
-                  "α is in its section; a table of one model's α should say which."]
-    lines.append("")
-    return lines
+        blocks.append(Paragraph(content(
+            Strong(("One α for a table",)), ", the models averaged by how well each predicts "
+            "the onsets left out (stacking on PSIS-LOO): ", averaged, ". Each model's own α is "
+            "in its section; a table of one model's α should say which.")))
+    return tuple(blocks)
 
 
-def adequacy_section(summary: Summary) -> list[str]:
-    """Markdown lines of each model's posterior predictive checks of its residuals."""
+def adequacy_section(summary: Summary) -> tuple[Block, ...]:
+    """Each model's posterior predictive checks of its residuals."""
     checked = {m: s.adequacy for m, s in summary.models.items()
                if s.adequacy is not None and s.adequacy.checks}
     if not checked:
-        return []
+        return ()
     level = next(iter(checked.values())).level
-    lines = ["## Does each model describe the onsets?", "",
-             "| model | residuals' lag-1 correlation (model's noise) | p | runs of one sign "
-             "(model's noise) | p | describes the onsets |", "|---|---:|---:|---:|---:|---|"]
+    header = (("model",), ("residuals' lag-1 correlation (model's noise)",), ("p",),
+              ("runs of one sign (model's noise)",), ("p",), ("describes the onsets",))
+    rows = []
     for model, adequacy in checked.items():
-        lag = adequacy.checks.get("lag1_autocorrelation")
-        runs = adequacy.checks.get("sign_runs")
-        cells = [f"{model_name(model)} (`{model}`)"]
-        for check, digits in ((lag, 2), (runs, 1)):
+        cells: list[Content] = [_model(model)]
+        for name, digits in (("lag1_autocorrelation", 2), ("sign_runs", 1)):
+            check = adequacy.checks.get(name)
             if check is None or check.observed is None or check.replicated is None:
-                cells += ["—", "—"]
+                cells += [("—",), ("—",)]
                 continue
-            cells += [f"{check.observed:.{digits}f} ({check.replicated:.{digits}f})",
-                      "—" if check.p_value is None
-                      else p_value_text(check.p_value).removeprefix("p ").removeprefix("= ")]
-        cells.append("yes" if adequacy.adequate else "**no**")
-        lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
-    lines += ["", "Posterior predictive checks: each statistic of the standardised residuals "
-              "against the same statistic of residuals replicated from the model's own noise, "
-              f"draw by draw; a model fails when either p-value is below {level:g}. Neighbouring "
-              "residuals that share a sign and a size (a high correlation, few runs) are a "
-              "pattern the model leaves out, not timing noise.", ""]
-    return lines
+            here = pointer("models", model, "adequacy", "checks", name)
+            cells.append((number(check.observed, f"{check.observed:.{digits}f}",
+                                 f"{here}/observed"), " (",
+                          number(check.replicated, f"{check.replicated:.{digits}f}",
+                                 f"{here}/replicated"), ")"))
+            cells.append(("—",) if check.p_value is None else (number(
+                check.p_value, p_value_text(check.p_value).removeprefix("p ")
+                .removeprefix("= "), f"{here}/p_value"),))
+        cells.append(("yes",) if adequacy.adequate else (Strong(("no",)),))
+        rows.append(tuple(cells))
+    note = ("Posterior predictive checks: each statistic of the standardised residuals "
+            "against the same statistic of residuals replicated from the model's own noise, "
+            f"draw by draw; a model fails when either p-value is below {level:g}. Neighbouring "
+            "residuals that share a sign and a size (a high correlation, few runs) are a "
+            "pattern the model leaves out, not timing noise.")
+    return (Heading(2, ("Does each model describe the onsets?",)),
+            Table(header, tuple(rows), (None, "right", "right", "right", "right", None),
+                  notes=(TableNote((note,)),)))
 
 
-def diagnostics_section(diagnostics: dict[str, Diagnostics]) -> list[str]:
-    """Markdown lines of the sampler diagnostics, in plain words."""
-    lines = ["## Sampler diagnostics", ""]
+def diagnostics_section(diagnostics: dict[str, Diagnostics]) -> tuple[Block, ...]:
+    """The sampler diagnostics, in plain words (their warnings are said at the top)."""
+    heading = Heading(2, ("Sampler diagnostics",))
     if not diagnostics:
-        return [*lines, "No sampler diagnostics were recorded.", ""]
+        return (heading, Paragraph(("No sampler diagnostics were recorded.",)))
+    items = []
     for model, diag in diagnostics.items():
-        facts = [f"{diag.n_steps} steps"]
+        here = pointer("diagnostics", model)
+        facts: list[Content] = [(number(diag.n_steps, f"{diag.n_steps}", f"{here}/n_steps"),
+                                 " steps")]
         if _finite(diag.tau_max):
-            facts.append(f"longest autocorrelation time {diag.tau_max:.0f} steps")
+            facts.append(("longest autocorrelation time ",
+                          number(diag.tau_max, f"{diag.tau_max:.0f}", f"{here}/tau_max"),
+                          " steps"))
         if _finite(diag.acceptance):
-            facts.append(f"acceptance {diag.acceptance:.2f}")
-        state = ("converged" if diag.converged
-                 else "**not converged**: the estimates may still move")
-        lines.append(f"- **{model_name(model)}** (`{model}`): {state} ({', '.join(facts)}).")
-        for warning in diag.warnings:
-            lines.append(f"  - ⚠ {warning.strip()}")
-    lines.append("")
-    return lines
+            facts.append(("acceptance ", number(diag.acceptance, f"{diag.acceptance:.2f}",
+                                                f"{here}/acceptance")))
+        state: Content = (("converged",) if diag.converged else
+                          (Strong(("not converged",)), ": the estimates may still move"))
+        listed = content(*[(", " if i else "", fact) for i, fact in enumerate(facts)])
+        items.append(content(Strong((model_name(model),)), " (", Code(model), "): ", state,
+                             " (", listed, ")."))
+    return (heading, BulletList(tuple(items)))
 
 
-def figures_section(figures: dict[str, Path | str], report_dir: Path) -> list[str]:
-    """Markdown lines embedding the figures (in the registry's order, with its captions),
-    with links relative to the report."""
+def figures_section(figures: dict[str, Path | str]) -> tuple[Block, ...]:
+    """The figures, in the registry's order, with its captions."""
     if not figures:
-        return []
-    lines = ["## Figures", ""]
-    for key in [k for k in FIGURES if k in figures]:
-        caption, note = FIGURES[key].caption, FIGURES[key].note
-        link = Path(os.path.relpath(Path(figures[key]).resolve(), report_dir.resolve()))
-        lines += [f"### {caption}", "", f"![{caption}]({link.as_posix()})", "", f"*{note}*", ""]
-    return lines
+        return ()
+    return (Heading(2, ("Figures",)),
+            *(Figure(FIGURES[key].caption, FIGURES[key].note, path=Path(figures[key]))
+              for key in FIGURES if key in figures))
 
 
-def onsets_section(onsets: tuple[Onset, ...]) -> list[str]:
+def onsets_section(onsets: tuple[Onset, ...]) -> tuple[Block, ...]:
     """A folded table of the onsets: bounce number, time and flight time (only between
     consecutive bounces: across a missing bounce the interval is no single flight)."""
     if not onsets:
-        return []
+        return ()
     has_sigma = any(o.sigma_s > 0 for o in onsets)
-    lines = ["<details><summary>Onset times "
-             f"({len(onsets)} onsets)</summary>", "",
-             "| k | onset time (s) | flight time T_k (ms) |" + (" σ (ms) |" if has_sigma else ""),
-             "|---:|---:|---:|" + ("---:|" if has_sigma else "")]
+    header: tuple[Content, ...] = (("k",), ("onset time (s)",), ("flight time T_k (ms)",))
+    if has_sigma:
+        header += (("σ (ms)",),)
     ends = set(single_flights([o.bounce for o in onsets]).tolist())
+    rows = []
     for i, onset in enumerate(onsets):
-        interval = "—" if i == 0 else "— (after a gap)"
+        here = pointer("onsets", i)
+        flight: Content = ("—",) if i == 0 else ("— (after a gap)",)
         if i in ends:
-            interval = f"{(onset.time_s - onsets[i - 1].time_s) * 1e3:.3f}"
-        line = f"| {onset.bounce} | {onset.time_s:.6f} | {interval} |"
+            value = (onset.time_s - onsets[i - 1].time_s) * 1e3
+            flight = (number(value, f"{value:.3f}",
+                             pointer("observed_flights", "time_s", onset.bounce - 1),
+                             scale=1e3),)
+        row: tuple[Content, ...] = (
+            (number(onset.bounce, f"{onset.bounce}", f"{here}/bounce"),),
+            (number(onset.time_s, f"{onset.time_s:.6f}", f"{here}/time_s"),), flight)
         if has_sigma:
-            line += f" {onset.sigma_s * 1e3:.3f} |"
-        lines.append(line)
-    return [*lines, "", "</details>", ""]
+            row += ((number(onset.sigma_s * 1e3, f"{onset.sigma_s * 1e3:.3f}",
+                            f"{here}/sigma_s", scale=1e3),),)
+        rows.append(row)
+    table = Table(header, tuple(rows), ("right",) * len(header))
+    return (Details(f"Onset times ({len(onsets)} onsets)", (table,)),)
 
 
-def notes_section(notes: tuple[str, ...]) -> list[str]:
-    """The notes on the onsets (other rolls, renumbering, missing bounces), one line each."""
-    return [line for note in notes for line in (f"> **Note:** {_cell(note)}.", "")]
+def notes_section(notes: tuple[str, ...]) -> tuple[Block, ...]:
+    """The notes on the onsets (other rolls, renumbering, missing bounces), one each."""
+    return tuple(Callout((Strong(("Note:",)), f" {note}."), "note") for note in notes)
 
 
-def config_section(config: dict[str, Any]) -> list[str]:
+def warnings_section(summary: Summary) -> tuple[Block, ...]:
+    """A main model that does not describe the onsets, then every other warning: what the
+    reader must know before reading any number."""
+    misfit = summary.misfit
+    blocks: list[Block] = []
+    if misfit:
+        blocks.append(Callout((Strong(("⚠ The model does not fit.",)), f" {misfit}."),
+                              "warning"))
+    others = [w.strip() for w in summary.warnings if w != misfit]
+    if others:
+        blocks += [Paragraph((Strong(("Warnings",)), ", to read before the numbers:")),
+                   BulletList(tuple((f"⚠ {w}",) for w in others), kind="warning")]
+    return tuple(blocks)
+
+
+def config_section(config: dict[str, Any]) -> tuple[Block, ...]:
     """The configuration used, folded away, as JSON."""
     if not config:
-        return []
+        return ()
     text = json.dumps(config, indent=2, sort_keys=True, default=str, ensure_ascii=False)
-    return ["<details><summary>Configuration used</summary>", "", "```json", text, "```", "",
-            "</details>", ""]
+    return (Details("Configuration used", (CodeBlock(text, "json"),)),)
 
 
-def _headline(summary: Summary) -> str:
+def headline(summary: Summary) -> tuple[Block, ...]:
     """``**Result:** α = 0.880 ± 0.002, t_B = 0.253 ± 0.001 s; preferred model: …``."""
-    parts = []
+    parts: list[Content] = []
     for key in ("alpha", "t_b"):
         stats = summary.parameters.get(key)
         if stats is not None and _finite(stats.mean):
-            estimate, _ = format_estimate(stats)
+            estimate, _ = estimate_content(stats, pointer("parameters", key))
             unit = unit_of(key)
-            parts.append(f"{QUANTITIES[key].plain} = {estimate}{' ' + unit if unit else ''}")
-    text = ", ".join(parts)
+            parts.append((f"{QUANTITIES[key].plain} = ", *estimate, f" {unit}" if unit else ""))
+    text = content(*[(", " if i else "", part) for i, part in enumerate(parts)])
     if summary.preferred:
-        text += ("; " if text else "") + f"preferred model: {model_name(summary.preferred)}"
-    return f"**Result:** {text}." if text else ""
+        text = content(text, "; " if text else "",
+                       f"preferred model: {model_name(summary.preferred)}")
+    return (Paragraph((Strong(("Result:",)), " ", *text, ".")),) if text else ()
+
+
+def _title(summary: Summary) -> str:
+    return f"Drumroll estimate: {Path(str(summary.source or 'the recording')).name}"
+
+
+def _facts(summary: Summary) -> Paragraph:
+    model = summary.model
+    of_roll = f" (roll {summary.roll} of {summary.n_rolls})" if summary.n_rolls > 1 else ""
+    facts: list[Content] = [("Model: ", Strong((model_name(model),)), " (", Code(model), ")"),
+                            (f"{summary.n_onsets} onsets{of_roll}",)]
+    if summary.version:
+        facts.append((f"drumroll {summary.version}",))
+    return Paragraph(content(*[(", " if i else "", f) for i, f in enumerate(facts)], "."))
+
+
+def lead(summary: Summary) -> tuple[Block, ...]:
+    """The report's opening, up to its headline: the title, the notes and warnings (before
+    any number), what was fitted, the headline result."""
+    return (Heading(1, (_title(summary),)), *notes_section(summary.notes),
+            *warnings_section(summary), _facts(summary), *headline(summary))
+
+
+def estimate_document(summary: Summary, figures: dict[str, Path | str] | None = None
+                      ) -> Document:
+    """The report of an estimate as a :class:`~drumroll.reporting.document.Document`.
+
+    Parameters
+    ----------
+    summary
+        The estimate's summary (``summary.json``).
+    figures
+        Figure key (:data:`~drumroll.reporting.figures.FIGURES`) → PNG path.
+    """
+    model = summary.model
+    blocks: list[Block] = [*lead(summary), Heading(2, (f"Parameters ({model_name(model)})",)),
+                           *parameter_table(summary.parameters, model,
+                                            summary.diagnostics.get(model)),
+                           *comparison_section(summary), *adequacy_section(summary),
+                           *diagnostics_section(summary.diagnostics),
+                           *figures_section(figures or {})]
+    details = (*onsets_section(summary.onsets), *config_section(summary.config))
+    if details:
+        blocks += [Heading(2, ("Details",)), *details]
+    return Document(_title(summary), tuple(blocks))
 
 
 def render_report(summary: Summary, figures: dict[str, Path | str] | None = None,
                   report_dir: str | os.PathLike[str] = ".") -> str:
     """The Markdown text of the report (see :func:`write_report`)."""
-    model = summary.model
-    source = summary.source or "the recording"
-    lines = [f"# Drumroll estimate: {_cell(Path(str(source)).name)}", ""]
-    facts = [f"Model: **{model_name(model)}** (`{model}`)"]
-    of_roll = f" (roll {summary.roll} of {summary.n_rolls})" if summary.n_rolls > 1 else ""
-    facts.append(f"{summary.n_onsets} onsets{of_roll}")
-    if summary.version:
-        facts.append(f"drumroll {summary.version}")
-    lines += [", ".join(facts) + ".", ""]
-    lines += notes_section(summary.notes)
-    misfit = summary.misfit
-    if misfit:  # said before any number
-        lines += [f"> **⚠ The model does not fit.** {misfit}.", ""]
-    headline = _headline(summary)
-    if headline:
-        lines += [headline, ""]
-    lines += [f"## Parameters ({model_name(model)})", ""]
-    lines += parameter_table(summary.parameters, model, summary.diagnostics.get(model))
-    lines.append("")
-    lines += comparison_section(summary)
-    lines += adequacy_section(summary)
-    lines += diagnostics_section(summary.diagnostics)
-    lines += figures_section(figures or {}, Path(report_dir))
-    details = onsets_section(summary.onsets) + config_section(summary.config)
-    if details:
-        lines += ["## Details", "", *details]
-    return "\n".join(lines).rstrip() + "\n"
+    return render_markdown(estimate_document(summary, figures), report_dir)
 
 
 def write_report(path: str | os.PathLike[str], summary: Summary,
                  figures: dict[str, Path | str] | None = None, overwrite: bool = False) -> Path:
-    """Write ``report.md`` for an estimate, atomically.
+    """Write the report of an estimate, atomically: ``report.md`` (Markdown, figures linked)
+    or, for a path ending in ``.html``, ``report.html`` (one page, figures embedded).
 
     Parameters
     ----------
@@ -376,5 +501,7 @@ def write_report(path: str | os.PathLike[str], summary: Summary,
     """
     path = Path(path)
     fileio.check_writable(path, overwrite=overwrite)
-    text = render_report(summary, figures, path.parent)
+    document = estimate_document(summary, figures)
+    text = (render_html(document) if path.suffix.lower() in (".html", ".htm")
+            else render_markdown(document, path.parent))
     return fileio.write_text(path, text, overwrite=overwrite)
