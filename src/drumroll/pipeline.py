@@ -18,7 +18,6 @@ import importlib
 import math
 import os
 import time
-from collections.abc import Callable
 from concurrent.futures import as_completed
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -58,6 +57,7 @@ from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.inference.space import ParameterSpace
 from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
 from drumroll.physics.models import forward_model
+from drumroll.progress import ProgressLike, as_progress
 from drumroll.quantities import BY_NAME
 from drumroll.workers import process_pool
 
@@ -72,8 +72,6 @@ MIN_ONSETS = 4
 #: chain is thinned further, and the InferenceData says by how much); every summary, R-hat and
 #: ESS is computed on all draws before.
 MAX_DRAWS = 3000
-
-Progress = Callable[[str], None]
 
 
 @dataclass
@@ -409,7 +407,7 @@ def _predicted_prior_notes(config: Config, spaces: dict[str, ParameterSpace]) ->
 
 
 def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str | os.PathLike[str],
-             *, roll: int | None = None, progress: Progress | None = None,
+             *, roll: int | None = None, progress: ProgressLike = None,
              listener: EstimateListener | None = None, **onset_options: Any) -> Result:
     """Posteriors of every model in the config, and their comparison.
 
@@ -425,7 +423,11 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         Which roll of the source to fit (0, 1, 2, … in time order); default the longest
         (see :func:`choose_roll`).
     progress
-        Called with a line of text at each stage (the command line prints it on stderr).
+        Where the estimate reports its stages (:func:`drumroll.progress.as_progress`): None
+        shows a bar of the models sampled where a person watches (a terminal, a notebook)
+        and nothing elsewhere; False nothing; a callable is called with a line of news at
+        each stage (the command line prints them on stderr); or a
+        :class:`~drumroll.progress.Progress`.
     listener
         Told of results as they appear (:class:`EstimateListener`: the command line starts
         drawing figures while models are still sampled).
@@ -438,7 +440,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     Result
         Summary, fits (InferenceData per model), onsets.
     """
-    say = progress or (lambda message: None)
+    reporter = as_progress(progress)
+    say = reporter.say
     if not isinstance(config, Config):
         config = load_config(config)
     settings = estimate_settings(config)
@@ -539,33 +542,39 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     def renumbered_fit(missed: int) -> tuple:
         return _fit, renumbered[missed], evidence_settings, seeds[config.model]
 
-    if workers == 1:
-        for model in models:
-            output = _fit(posteriors[model], settings, seeds[model])
-            if not fits:
+    # One bar for every fit: the models, and the numberings fitted for their evidence.
+    with reporter.bar(len(models) + len(renumbered), "sampling", "fit") as bar:
+        if workers == 1:
+            for model in models:
+                output = _fit(posteriors[model], settings, seeds[model])
+                if not fits:
+                    _while_sampling(listener, onsets, recording)
+                finish(model, output)
+                say(f"{model}: done")
+                bar.advance(note=model)
+            for missed in renumbered:
+                function, *arguments = renumbered_fit(missed)
+                keep_evidence(missed, function(*arguments))
+                bar.advance(note=f"{missed} missed")
+        else:
+            # emcee before the workers fork, so that they share it; the figures' libraries
+            # and so on after, while the workers sample.
+            importlib.import_module("drumroll.inference.ensemble")
+            with process_pool(workers) as pool:
+                futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
+                           for m in models}
+                futures.update({pool.submit(*renumbered_fit(missed)): missed
+                                for missed in renumbered})
                 _while_sampling(listener, onsets, recording)
-            finish(model, output)
-            say(f"{model}: done")
-        for missed in renumbered:
-            function, *arguments = renumbered_fit(missed)
-            keep_evidence(missed, function(*arguments))
-    else:
-        # emcee before the workers fork, so that they share it; the figures' libraries and
-        # so on after, while the workers sample.
-        importlib.import_module("drumroll.inference.ensemble")
-        with process_pool(workers) as pool:
-            futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
-                       for m in models}
-            futures.update({pool.submit(*renumbered_fit(missed)): missed
-                            for missed in renumbered})
-            _while_sampling(listener, onsets, recording)
-            for future in as_completed(futures):
-                task = futures[future]
-                if isinstance(task, int):
-                    keep_evidence(task, future.result())
-                    continue
-                finish(task, future.result())
-                say(f"{task}: done")
+                for future in as_completed(futures):
+                    task = futures[future]
+                    if isinstance(task, int):
+                        keep_evidence(task, future.result())
+                        bar.advance(note=f"{task} missed")
+                        continue
+                    finish(task, future.result())
+                    say(f"{task}: done")
+                    bar.advance(note=task)
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 

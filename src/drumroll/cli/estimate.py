@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     # Figures are drawn as soon as their inputs exist, while the estimate goes on.
     with FigureDrawer(out_dir, truths=truths, workers=args.workers) as drawer:
         with progress.stage(f"estimating {', '.join(config.models)} from {source.name}"):
-            result = estimate(source, config, roll=args.roll, progress=progress.say,
+            result = estimate(source, config, roll=args.roll, progress=progress,
                               listener=drawer, **onset_options)
         with progress.stage(f"writing {out_dir}"):
             write_outputs(result, out_dir, overwrite=args.force, truths=truths,

@@ -42,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "the listed parameters jointly across the runs.")
     parser.add_argument("runs", metavar="RUNS.toml", help="runs file (see drumroll.table.runs)")
     parser.add_argument("-o", "--output", type=Path, metavar="FILE",
-                        help="write the table here (default: print it)")
+                        help="write the table here (default: print it); a Markdown table "
+                        "gets its HTML page beside it (FILE.html, Figure 5 embedded)")
     # An explicit metavar: without one, add_argument formats the choices at once (to check
     # them), importing the table's machinery (scipy.special among it) for every command.
     parser.add_argument("--format", choices=_TableFormats(), metavar="FORMAT",
@@ -59,7 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write cached runs")
     parser.add_argument("--force", action="store_true", help="overwrite existing outputs")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress on stderr (no bar on a terminal, no news lines)")
     parser.set_defaults(func=run)
 
 
@@ -88,7 +90,13 @@ def run(args: argparse.Namespace) -> int:
 
     runs = load_runs(args.runs)
     fmt = args.format or format_for(args.output.suffix if args.output else "")
-    for path in (args.output, args.plot):
+    # A Markdown table written to a file gets its HTML page beside it (Figure 5 embedded).
+    page = None
+    if args.output is not None and fmt == "markdown":
+        from drumroll.reporting.report_files import html_path
+
+        page = html_path(args.output)
+    for path in (args.output, page, args.plot):
         if path is not None:
             check_writable(path, overwrite=args.force)
     if args.plot is not None and args.plot.suffix.lower() != ".png":
@@ -97,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         _check_cache_folder(args.cache_dir or runs.cache_dir)
     progress = Progress(quiet=args.quiet)
     options = {"workers": args.workers, "cache_dir": args.cache_dir,
-               "use_cache": not args.no_cache, "progress": progress.say}
+               "use_cache": not args.no_cache, "progress": progress}
     if args.dask:
         with dask_executor(args.dask) as executor:
             result = run_table(runs, executor=executor, **options)
@@ -113,21 +121,33 @@ def run(args: argparse.Namespace) -> int:
     text = format_table(result, fmt)
     if args.output is None:
         sys.stdout.write(text)
-    # The table and the figure are written together: both or, if one fails (a full disk),
-    # neither.
+    # The table, its page and the figure are written together: all or, if one fails (a
+    # full disk), none.
     writers = {}
-    if args.output is not None:
-        writers[args.output] = lambda tmp: tmp.write_text(text, encoding="utf-8")
     with contextlib.ExitStack() as drawing:
-        if args.plot is not None:
+        figure = None
+        if args.plot is not None or page is not None:
             from drumroll.reporting.plot_style import missing_glyphs_said_once
-            from drumroll.table.plot import plot_table
+            from drumroll.table.plot import table_png
 
-            drawing.enter_context(missing_glyphs_said_once(args.plot.name))
-            writers[args.plot] = lambda tmp: plot_table(result, tmp, overwrite=True)
+            drawing.enter_context(missing_glyphs_said_once((args.plot or page).name))
+            figure = table_png(result)  # drawn once: the PNG file and the page's figure
+        if page is not None:
+            from drumroll.reporting.document import Figure
+            from drumroll.reporting.report_files import document_writers
+            from drumroll.table.formatting import FIGURE_CAPTION, FIGURE_NOTE, table_document
+
+            document = table_document(result, Figure(FIGURE_CAPTION, FIGURE_NOTE,
+                                                     path=args.plot, png=figure))
+            writers.update(document_writers(args.output, document))
+        elif args.output is not None:
+            writers[args.output] = lambda tmp: tmp.write_text(text, encoding="utf-8")
+        if args.plot is not None:
+            writers[args.plot] = lambda tmp: tmp.write_bytes(figure)
         write_together(writers, overwrite=args.force)
     if args.output is not None:
-        progress.say(f"table written to {args.output}")
+        progress.say(f"table written to {args.output}"
+                     + (f" (and {page})" if page is not None else ""))
     if args.plot is not None:
         progress.say(f"figure written to {args.plot}")
     return 0

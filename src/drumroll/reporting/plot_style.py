@@ -10,6 +10,7 @@ backend needed) and written atomically with :func:`drumroll.fileio.write_with`.
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import re
 import warnings
@@ -92,6 +93,16 @@ def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -
             path, lambda tmp: write_png(fig, tmp, dpi=DPI, facecolor="white",
                                         pil_kwargs={"compress_level": PNG_COMPRESSION}),
             overwrite=overwrite)
+
+
+def png_bytes(fig) -> bytes:
+    """``fig`` as the PNG :func:`save_figure` writes, in memory (a report or a notebook
+    embeds it)."""
+    buffer = io.BytesIO()
+    with style():
+        write_png(fig, buffer, dpi=DPI, facecolor="white",
+                  pil_kwargs={"compress_level": PNG_COMPRESSION})
+    return buffer.getvalue()
 
 
 #: Matplotlib's warning of a character its font cannot draw (one warning per character).

@@ -27,6 +27,7 @@ from drumroll import fileio
 from drumroll._version import __version__
 from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.inference.results import ParameterSummary, Record, Summary
+from drumroll.progress import ProgressLike, as_progress
 from drumroll.table.runs import Run, RunsFile, validate_estimation
 from drumroll.workers import process_pool
 
@@ -36,8 +37,6 @@ CACHE_SCHEMA = 4
 PREDICT_DRAWS = 20_000
 #: Seed of the computed t_B's draws.
 PREDICT_SEED = 0
-
-Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
@@ -175,7 +174,8 @@ def compute_run(source: str, raw: dict[str, Any], roll: int | None = None,
 
     started = time.perf_counter()
     config = parse_config(raw)
-    result = estimate(source, config, roll=roll,
+    # No bar of its own: the table's bar counts the runs.
+    result = estimate(source, config, roll=roll, progress=False,
                       **({} if stream is None else {"stream": stream}))
     computed: dict[str, Estimate] = {}
     if config.stick is not None:
@@ -240,7 +240,7 @@ def default_workers() -> int:
 
 def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor | None = None,
               cache_dir: Path | None = None, use_cache: bool = True,
-              progress: Progress | None = None) -> TableResult:
+              progress: ProgressLike = None) -> TableResult:
     """Every run's row, from the cache or computed in parallel.
 
     Parameters
@@ -257,14 +257,18 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
     use_cache
         Read and write the cache (False: compute everything, write nothing).
     progress
-        Called with a line of news per finished run.
+        Where the table reports (:func:`drumroll.progress.as_progress`): None shows a bar of
+        the runs done, with the time left, where a person watches (a terminal, a notebook)
+        and nothing elsewhere; False nothing; a callable is called with a line of news per
+        finished run; or a :class:`~drumroll.progress.Progress`.
 
     Raises
     ------
     DrumrollError
         A run failed (one line naming it); the runs finished before stay cached.
     """
-    say = progress or (lambda message: None)
+    reporter = as_progress(progress)
+    say = reporter.say
     started = time.perf_counter()
     folder = cache_dir if cache_dir is not None else runs.cache_dir
     keys = [run_key(run) for run in runs.runs]
@@ -287,32 +291,35 @@ def run_table(runs: RunsFile, *, workers: int | None = None, executor: Executor 
             write_cached(folder, keys[i], row)
         done = sum(r is not None for r in rows)
         say(f"run {runs.runs[i].label!r}: done in {row.seconds:.1f} s ({done}/{len(rows)})")
+        bar.advance(note=runs.runs[i].label)
 
     errors: list[DrumrollError] = []
 
     def fail(i: int, exc: DrumrollError) -> None:
         errors.append(DrumrollError(f"run {runs.runs[i].label!r}: {exc}"))
         say(f"run {runs.runs[i].label!r} failed: {exc}")
+        bar.advance(note=f"{runs.runs[i].label} failed")
 
-    if todo:
-        n = max(1, min(workers or default_workers(), len(todo)))
-        say(f"estimating {len(todo)} run{'s' if len(todo) > 1 else ''} "
-            + (f"on {type(executor).__name__}" if executor is not None else
-               f"in {n} process{'es' if n > 1 else ''}"))
-        if executor is None and n == 1:
-            for i in todo:
-                try:
-                    row = compute_run(str(runs.runs[i].source), runs.runs[i].raw,
-                                      runs.runs[i].roll, runs.runs[i].stream)
-                except DrumrollError as exc:
-                    fail(i, exc)
-                    continue
-                finish(i, row)
-        elif executor is not None:
-            _submit_all(executor, runs, todo, finish, fail)
-        else:
-            with process_pool(n) as pool:
-                _submit_all(pool, runs, todo, finish, fail)
+    with reporter.bar(len(rows), "table", "run", initial=len(rows) - len(todo)) as bar:
+        if todo:
+            n = max(1, min(workers or default_workers(), len(todo)))
+            say(f"estimating {len(todo)} run{'s' if len(todo) > 1 else ''} "
+                + (f"on {type(executor).__name__}" if executor is not None else
+                   f"in {n} process{'es' if n > 1 else ''}"))
+            if executor is None and n == 1:
+                for i in todo:
+                    try:
+                        row = compute_run(str(runs.runs[i].source), runs.runs[i].raw,
+                                          runs.runs[i].roll, runs.runs[i].stream)
+                    except DrumrollError as exc:
+                        fail(i, exc)
+                        continue
+                    finish(i, row)
+            elif executor is not None:
+                _submit_all(executor, runs, todo, finish, fail)
+            else:
+                with process_pool(n) as pool:
+                    _submit_all(pool, runs, todo, finish, fail)
     if errors:  # the runs that succeeded are cached: fix the failing one and re-run
         raise errors[0]
     return TableResult(runs=runs, rows=[r for r in rows if r is not None],

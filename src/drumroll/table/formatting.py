@@ -1,7 +1,12 @@
-"""The table as Markdown, CSV, LaTeX (booktabs + siunitx) or JSON, rounded like the paper.
+"""The table as Markdown, HTML, CSV, LaTeX (booktabs + siunitx) or JSON, rounded like the
+paper.
 
 Every ``value ± err`` is rounded by :func:`drumroll.reporting.numbers.format_value_error`: the
-error to one or two significant digits, the value to match (``0.22 ± 0.01``).
+error to one or two significant digits, the value to match (``0.22 ± 0.01``). The Markdown
+and the HTML page are one :class:`~drumroll.reporting.document.Document`
+(:func:`table_document`): the table, its caption and notes, a run whose model does not
+describe its onsets said above it, and Figure 5 when it is drawn; each number of the page
+names its place in the JSON format (``/rows/0/alpha/value``).
 """
 
 from __future__ import annotations
@@ -14,7 +19,21 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from drumroll.reporting.numbers import format_value_error
+from drumroll.reporting.document import (
+    Block,
+    Callout,
+    Content,
+    Document,
+    Figure,
+    Strong,
+    Table,
+    TableNote,
+    number,
+    pointer,
+)
+from drumroll.reporting.html import render_html
+from drumroll.reporting.markdown import render_markdown
+from drumroll.reporting.numbers import format_value_error, value_error_number
 from drumroll.table.execute import Estimate, TableResult
 from drumroll.table.runs import vary_spec, vary_value
 
@@ -108,54 +127,108 @@ def _shared(row: dict[str, Any], key: str) -> str:
     return _SHARED_MARK if key in row["shared"] else ""
 
 
-def to_markdown(result: TableResult) -> str:
-    """A GitHub Markdown table, with the caption and notes below it."""
+def _number(entry: dict[str, Any] | None, source: str, significant: int | None = None
+            ) -> Content:
+    """:func:`_cell`'s text as a number naming its place (``source``: the entry's pointer)."""
+    text = _cell(entry, significant)
+    if text == "–":
+        return (text,)
+    if " ± " not in text:
+        return (number(entry["value"], text, f"{source}/value"),)
+    return (value_error_number(entry["value"], entry["err"], f"{source}/value",
+                               f"{source}/err", significant),)
+
+
+#: The figure of a table: its caption and what to look for.
+FIGURE_CAPTION = "Figure 5: bounce duration series"
+FIGURE_NOTE = ("Each run's flight times on a log axis, with its main model's posterior "
+               "median and 90 % band; runs of one group share a panel. A power law is a "
+               "straight line here.")
+
+
+def table_document(result: TableResult, figure: Figure | None = None) -> Document:
+    """The table as a :class:`~drumroll.reporting.document.Document`: a run whose main
+    model does not describe its onsets (said first), the table with its caption and notes,
+    and ``figure`` (Figure 5) when given."""
     rows = table_rows(result)
     vary = result.runs.vary
     header = ["run", *([vary_header(vary)] if vary else []),
               *(plain for plain, _ in COLUMNS.values()), "preferred"]
-    lines = [f"**{result.runs.title}**", ""] if result.runs.title else []
-    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for row in rows:
-        cells = [row["label"], *([_cell(row["vary"], 1)] if vary else [])]
+    cells = []
+    for i, row in enumerate(rows):
+        here = pointer("rows", i)
+        line: list[Content] = [(row["label"],)]
+        if vary:
+            line.append(_number(row["vary"], f"{here}/vary", 1))
         for key in COLUMNS:
-            cells.append(_cell(row[key]) + _shared(row, key))
-        cells.append(_preferred(row))
-        lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", *notes(result, rows)]
-    return "\n".join(lines).rstrip() + "\n"
+            line.append((*_number(row[key], f"{here}{pointer(key)}"), _shared(row, key)))
+        line.append((_preferred(row),))
+        cells.append(tuple(line))
+    misfits = {run.label: r.summary.misfit for run, r in zip(result.runs.runs, result.rows,
+                                                             strict=True)}
+    blocks: list[Block] = [
+        Callout((Strong((f"⚠ {label}: the model does not fit.",)), f" {misfit}."), "warning")
+        for label, misfit in misfits.items() if misfit]
+    blocks.append(Table(tuple((h,) for h in header), tuple(cells),
+                        caption=(result.runs.title,) if result.runs.title else (),
+                        notes=notes(result, rows, said=set(misfits.values()) - {None})))
+    if figure is not None:
+        blocks.append(figure)
+    title = result.runs.title or f"drumroll table: {result.runs.path.name}"
+    return Document(title, tuple(blocks))
 
 
-def notes(result: TableResult, rows: list[dict[str, Any]]) -> list[str]:
-    """Plain-text notes under the table: what the columns are, the joint fit, each run's
-    notes on its onsets (other rolls, missing bounces) and warnings."""
-    out = ["Computed t_B: the priors (measured geometry with its ±) propagated through the "
-           "small-angle model (as in the paper) and the exact pendulum; fitted t_B and α: "
-           f"posterior mean ± sd of the {rows[0]['model'] if rows else 'main'} model; α, "
-           "models averaged: the fitted models' posteriors weighted by stacking on PSIS-LOO "
-           "(the models' α can differ by more than their error bars)."]
+def to_markdown(result: TableResult) -> str:
+    """A GitHub Markdown table, with the caption and notes below it."""
+    return render_markdown(table_document(result))
+
+
+def to_html(result: TableResult) -> str:
+    """The table as one HTML page, Figure 5 embedded."""
+    from drumroll.table.plot import table_png
+
+    figure = Figure(FIGURE_CAPTION, FIGURE_NOTE, png=table_png(result)) if result.rows \
+        else None
+    return render_html(table_document(result, figure))
+
+
+def notes(result: TableResult, rows: list[dict[str, Any]], said: set[str] = frozenset()
+          ) -> tuple[TableNote, ...]:
+    """The notes under the table: what the columns are, the joint fit, each run's notes on
+    its onsets (other rolls, missing bounces) and warnings (but those in ``said``, already
+    said above the table)."""
+    out = [TableNote((
+        "Computed t_B: the priors (measured geometry with its ±) propagated through the "
+        "small-angle model (as in the paper) and the exact pendulum; fitted t_B and α: "
+        f"posterior mean ± sd of the {rows[0]['model'] if rows else 'main'} model; α, "
+        "models averaged: the fitted models' posteriors weighted by stacking on PSIS-LOO "
+        "(the models' α can differ by more than their error bars).",))]
     joint = result.joint
     if joint:
         shared = ", ".join(result.runs.share)
-        out.append(f"{_SHARED_MARK} {shared} fitted jointly across the runs (one posterior, "
-                   "which also gives the rows' fitted t_B); "
-                   + "; ".join(f"{k} = {_cell(v)} (R-hat {v['r_hat']:.4f}, ESS "
-                               f"{v['ess_bulk']:.0f})" for k, v in joint["shared"].items())
-                   + f"; {joint['n_steps']} steps" + ("." if joint["converged"] else
-                   ", stopped at the step limit before converging: raise [sampler] "
-                   "max_steps."))
+        out.append(TableNote((
+            f"{_SHARED_MARK} {shared} fitted jointly across the runs (one posterior, which "
+            "also gives the rows' fitted t_B); "
+            + "; ".join(f"{k} = {_cell(v)} (R-hat {v['r_hat']:.4f}, ESS "
+                        f"{v['ess_bulk']:.0f})" for k, v in joint["shared"].items())
+            + f"; {joint['n_steps']} steps" + ("." if joint["converged"] else
+            ", stopped at the step limit before converging: raise [sampler] max_steps."),)))
         for key, entry in joint.get("separate", {}).items():
             parts = ", ".join(f"{label} {_cell(v)}" for label, v in entry.items())
-            out.append(f"Separate fits of {key}: {parts}; {joint['consistency'][key]}.")
+            out.append(TableNote((f"Separate fits of {key}: {parts}; "
+                                  f"{joint['consistency'][key]}.",)))
     for row in rows:
-        out += [f"Note ({row['label']}): {note}." for note in row["notes"]]
-        main = [w for w in row["warnings"] if w.startswith(f"{row['model']}:")]
+        out += [TableNote((f"Note ({row['label']}): {note}.",)) for note in row["notes"]]
+        main = [w for w in row["warnings"] if w.startswith(f"{row['model']}:")
+                or w.startswith(f"{row['model']} ")]
         for warning in main:
-            out.append(f"Warning ({row['label']}): {warning}")
+            if warning not in said:
+                out.append(TableNote((f"Warning ({row['label']}): {warning}",), warning=True))
         if len(row["warnings"]) > len(main):
-            out.append(f"({row['label']}: {len(row['warnings']) - len(main)} more warning(s) "
-                       "about the compared models; see --format json.)")
-    return out
+            out.append(TableNote((
+                f"({row['label']}: {len(row['warnings']) - len(main)} more warning(s) about "
+                "the compared models; see --format json.)",)))
+    return tuple(out)
 
 
 def to_csv(result: TableResult) -> str:
@@ -235,6 +308,7 @@ class TableFormat:
 #: The table's formats, the default first.
 FORMATS: dict[str, TableFormat] = {f.name: f for f in (
     TableFormat("markdown", (".md", ".markdown"), to_markdown),
+    TableFormat("html", (".html", ".htm"), to_html),
     TableFormat("csv", (".csv",), to_csv),
     TableFormat("latex", (".tex",), to_latex),
     TableFormat("json", (".json",), to_json),

@@ -17,6 +17,22 @@ def panels(result: TableResult) -> list[tuple[str | None, list[tuple[str, Summar
     return list(out.items())
 
 
+def draw_table(result: TableResult):
+    """Figure 5 of ``result`` as a :class:`matplotlib.figure.Figure`."""
+    from drumroll.reporting.figure5 import draw_figure5
+    from drumroll.reporting.plot_style import style
+
+    with style():
+        return draw_figure5(panels(result), title=result.runs.title)
+
+
+def table_png(result: TableResult) -> bytes:
+    """Figure 5 of ``result`` as the PNG :func:`plot_table` writes, in memory."""
+    from drumroll.reporting.plot_style import png_bytes
+
+    return png_bytes(draw_table(result))
+
+
 def plot_table(result: TableResult, path: str | os.PathLike[str], *,
                overwrite: bool = False) -> Path:
     """Write Figure 5 of ``result`` to ``path`` (PNG, atomically)."""
