@@ -3,7 +3,9 @@
 Runs ``examples/table1.toml``, ``examples/table2.toml`` and ``examples/tension.toml`` over the
 bundled simulated recordings in ``data/`` and writes to ``examples/output/``:
 
-* ``table1.md``, ``table2.md``, ``tension.md``: the tables, rounded like the paper;
+* ``table1.md``, ``table2.md``, ``tension.md``: the tables, rounded like the paper, each with
+  its HTML page beside it (``table1.html``, …: the same table, its notes and its panel of
+  Figure 5 embedded; it opens offline in any browser and prints as it is);
 * ``figure5.png``: bounce-duration series, one panel per set of runs (pivot | height |
   drumhead tension), each with its posterior median and 90 % band;
 * ``truth_check.md``: each fitted α and t_B against the recording's known truth.
@@ -21,11 +23,15 @@ import argparse
 import json
 from pathlib import Path
 
-from drumroll.fileio import write_text
+from drumroll.fileio import write_text, write_together
+from drumroll.reporting.document import Figure, Paragraph
 from drumroll.reporting.figure5 import plot_figure5
+from drumroll.reporting.markdown import render_markdown
 from drumroll.reporting.numbers import format_value_error
-from drumroll.table import format_table, load_runs, run_table
-from drumroll.table.plot import panels
+from drumroll.reporting.report_files import document_writers
+from drumroll.table import load_runs, run_table
+from drumroll.table.formatting import FIGURE_CAPTION, FIGURE_NOTE, table_document
+from drumroll.table.plot import panels, table_png
 
 HERE = Path(__file__).resolve().parent
 OUTPUT = HERE / "output"
@@ -72,9 +78,10 @@ def main() -> None:
     for name in TABLES:
         runs = load_runs(HERE / f"{name}.toml")
         result = run_table(runs, workers=args.workers, progress=print)
-        text = format_table(result, "markdown") + f"\n{PAPER[name]}\n"
-        write_text(OUTPUT / f"{name}.md", text, overwrite=True)
-        print(text)
+        figure = Figure(FIGURE_CAPTION, FIGURE_NOTE, png=table_png(result))
+        document = table_document(result, figure).extended(Paragraph((PAPER[name],)))
+        write_together(document_writers(OUTPUT / f"{name}.md", document), overwrite=True)
+        print(render_markdown(document, OUTPUT))
         all_panels += panels(result)
         truth += truth_rows(name, result)
     plot_figure5(all_panels, OUTPUT / "figure5.png", overwrite=True,

@@ -59,6 +59,7 @@ from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
 from drumroll.physics.models import forward_model
 from drumroll.progress import ProgressLike, as_progress
 from drumroll.quantities import BY_NAME
+from drumroll.reporting.numbers import format_value_error
 from drumroll.workers import process_pool
 
 if TYPE_CHECKING:  # ArviZ is imported only for Result.idatas
@@ -157,6 +158,36 @@ class Result:
     def parameter(self, name: str) -> ParameterSummary:
         """The main model's summary of one quantity (``alpha``, ``t_b``, …)."""
         return self.summary.parameters[name]
+
+    def figure(self, name: str = "bounce_series"):
+        """Figure ``name`` as a :class:`matplotlib.figure.Figure` (a notebook shows it
+        inline): ``onsets``, ``bounce_series``, ``residuals``, ``comparison``, ``corner`` or
+        ``trace``, as ``drumroll estimate`` writes them
+        (:func:`drumroll.reporting.display.estimate_figure`)."""
+        from drumroll.reporting.display import estimate_figure
+
+        return estimate_figure(self, name)
+
+    def __repr__(self) -> str:
+        summary = self.summary
+        source = f" of {self.source.name}" if self.source is not None else ""
+        found = [f"{key} = {format_value_error(p.mean, p.sd)}"
+                 for key in ("alpha", "t_b") if (p := summary.parameters.get(key)) is not None
+                 and p.mean is not None and p.sd is not None]
+        preferred = summary.preferred or "none"
+        return (f"<drumroll estimate{source}: {summary.model}, {summary.n_onsets} onsets; "
+                f"{', '.join(found)}; preferred model: {preferred}>")
+
+    # The rich displays of a notebook (imported only when shown).
+    def _repr_html_(self) -> str:
+        from drumroll.reporting.display import estimate_display, to_html
+
+        return to_html(estimate_display(self))
+
+    def _repr_markdown_(self) -> str:
+        from drumroll.reporting.display import estimate_display, to_markdown
+
+        return to_markdown(estimate_display(self, figure=False))
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ is shown depends on where the work runs:
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
 from collections.abc import Callable, Iterator
 from typing import Any, Literal, TextIO
@@ -102,6 +103,14 @@ def _notebook_widgets() -> bool:
     return True
 
 
+def _columns(stream: TextIO) -> int:
+    """The width of the terminal ``stream`` is (0: unknown)."""
+    try:
+        return os.get_terminal_size(stream.fileno()).columns
+    except (AttributeError, OSError, ValueError):
+        return 0
+
+
 class _TqdmBar(Bar):
     def __init__(self, bar: Any) -> None:
         self._bar = bar
@@ -165,6 +174,8 @@ class Bars(Progress):
                                    "smoothing": 0.1}
         if tqdm.__module__ != "tqdm.notebook":  # a text bar: to our stream, always drawn
             options.update(file=self.stream, disable=False, mininterval=0.2)
+            if not _columns(self.stream):  # a terminal that gives no size (a bare pty)
+                options.update(dynamic_ncols=False, ncols=80, nrows=24)
         bar = tqdm(**options)
         self._open.append(bar)
         try:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from drumroll import fileio
 from drumroll.cli.arguments import non_negative_int, positive_float
+from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
 from drumroll.onsets.table import COLUMNS
 
@@ -37,6 +38,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="which audio stream of a video or other file with several (0, 1, 2, "
                    "…; default 0, the first)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress on stderr (no spinner on a terminal, no line saying what "
+                   "was written)")
     p.set_defaults(func=run)
 
 
@@ -56,8 +60,11 @@ def run(args: argparse.Namespace) -> int:
     options = {} if args.highpass is None else {"highpass_hz": args.highpass}
     # The stream travels with the path, so that the figure reads the same stream.
     audio = args.audio if args.stream is None else AudioSource(args.audio, args.stream)
-    table = detect(audio, threshold=args.threshold, all_candidates=args.all_candidates,
-                   **options)
+    progress = Progress(quiet=args.quiet)
+    with progress.stage(f"finding the onsets of {Path(args.audio).name}") \
+            if progress.interactive else contextlib.nullcontext():
+        table = detect(audio, threshold=args.threshold, all_candidates=args.all_candidates,
+                       **options)
     csv = table.to_csv(all_candidates=args.all_candidates)
     if not args.output:
         sys.stdout.write(csv)
@@ -78,23 +85,5 @@ def run(args: argparse.Namespace) -> int:
             writers[args.plot] = lambda tmp: figure.savefig(tmp, dpi=110)
         fileio.write_together(writers, overwrite=args.force)
     if args.output:
-        print(f"drumroll: {_describe(table)} written to {args.output}", file=sys.stderr)
+        progress.say(f"drumroll: {table.describe()} written to {args.output}")
     return 0
-
-
-def _describe(table) -> str:
-    """One line on what was found: each roll's impacts, span and unheard bounces, and the
-    channel timed on."""
-    rolls = []
-    for n in table.rolls:
-        roll = table.select_roll(n)
-        gaps = table.gaps(n)
-        missing = f", bounce{'s' if len(gaps) > 1 else ''} {', '.join(map(str, gaps))} " \
-            "unheard" if gaps else ""
-        rolls.append(f"{len(roll)} impacts from {roll.time_s[0]:.4f} s to "
-                     f"{roll.time_s[-1]:.4f} s{missing}")
-    text = rolls[0] if len(rolls) == 1 else \
-        f"{len(rolls)} rolls: " + "; ".join(f"roll {n}: {r}" for n, r in enumerate(rolls))
-    if table.channel is not None:
-        text += f" (timed on channel {table.channel + 1}, which hears the impacts first)"
-    return text

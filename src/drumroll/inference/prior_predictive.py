@@ -68,6 +68,44 @@ class Prediction:
         out["valid_fraction"] = self.valid_fraction
         return out
 
+    def __repr__(self) -> str:
+        t_b = self.quantity("t_b") if "t_b" in DERIVED else np.zeros(0)
+        spread = (f"; t_B = {np.mean(t_b):.4g} ± {np.std(t_b, ddof=1):.2g} s"
+                  if t_b.size > 1 and np.all(np.isfinite(t_b)) else "")
+        return (f"<Prediction of {self.model}: {self.bounces.alpha.shape[0]} of {self.n_draws} "
+                f"draws make a drumroll{spread}>")
+
+    # The rich displays of a notebook are the reporting layer's (imported only when shown).
+    def _repr_html_(self) -> str:
+        from drumroll.reporting.display import predictions_display, to_html
+
+        return to_html(predictions_display({self.model: self}))
+
+    def _repr_markdown_(self) -> str:
+        from drumroll.reporting.display import predictions_display, to_markdown
+
+        return to_markdown(predictions_display({self.model: self}, figure=False))
+
+
+class Predictions(dict[str, Prediction]):
+    """What :func:`predict` returns: model name → :class:`Prediction`, a plain dict that a
+    notebook displays as a table of every model's predicted quantities and a figure of
+    their flights."""
+
+    def __repr__(self) -> str:
+        draws = ", ".join(str(n) for n in sorted({p.n_draws for p in self.values()}))
+        return f"<Predictions of {', '.join(self) or 'no model'} ({draws or 'no'} draws)>"
+
+    def _repr_html_(self) -> str:
+        from drumroll.reporting.display import predictions_display, to_html
+
+        return to_html(predictions_display(self))
+
+    def _repr_markdown_(self) -> str:
+        from drumroll.reporting.display import predictions_display, to_markdown
+
+        return to_markdown(predictions_display(self, figure=False))
+
 
 #: Most values (draws × (flights + 1)) in one array of a propagation: each array is then at
 #: most 400 MB, and a dozen of them fit in memory; beyond, the Monte Carlo error is long
@@ -137,7 +175,7 @@ def propagate(config: Config, model: str, n_flights: int = 5, n_draws: int = 20_
 
 
 def predict(config: Config | str | os.PathLike[str], n_flights: int = 5,
-            n_draws: int = 20_000, seed: int | None = 0) -> dict[str, Prediction]:
+            n_draws: int = 20_000, seed: int | None = 0) -> Predictions:
     """``drumroll predict`` as a function: every model the config can predict
     (:func:`predictable_models`), propagated from the priors (:func:`propagate`).
 
@@ -150,8 +188,8 @@ def predict(config: Config | str | os.PathLike[str], n_flights: int = 5,
 
     Returns
     -------
-    dict
-        Model name → its :class:`Prediction`.
+    Predictions
+        Model name → its :class:`Prediction` (a dict).
 
     Raises
     ------
@@ -165,5 +203,5 @@ def predict(config: Config | str | os.PathLike[str], n_flights: int = 5,
         where = f"{config.path}: " if config.path else ""
         raise DrumrollError(f"{where}nothing to predict: give a [stick] section (for the "
                             "pendulum models) or a prior for t_b (for the power law)")
-    return {m: propagate(config, m, n_flights=n_flights, n_draws=n_draws, seed=seed)
-            for m in models}
+    return Predictions({m: propagate(config, m, n_flights=n_flights, n_draws=n_draws, seed=seed)
+                        for m in models})

@@ -181,6 +181,42 @@ class OnsetTable:
             bounces = self.bounce[self.roll == roll]
         return missing_bounces(bounces)
 
+    # -- saying what it holds --------------------------------------------------------------
+    def describe(self) -> str:
+        """One line on what was found: each roll's impacts, span and unheard bounces, and
+        the channel timed on (``16 impacts from 1.0896 s to 2.9303 s``)."""
+        if not len(self):
+            return "no impacts"
+        rolls = []
+        for n in self.rolls:
+            roll = self.select_roll(n)
+            gaps = self.gaps(n)
+            missing = f", bounce{'s' if len(gaps) > 1 else ''} {', '.join(map(str, gaps))} " \
+                "unheard" if gaps else ""
+            rolls.append(f"{len(roll)} impacts from {roll.time_s[0]:.4f} s to "
+                         f"{roll.time_s[-1]:.4f} s{missing}")
+        text = rolls[0] if len(rolls) == 1 else \
+            f"{len(rolls)} rolls: " + "; ".join(f"roll {n}: {r}" for n, r in enumerate(rolls))
+        if self.channel is not None:
+            text += f" (timed on channel {self.channel + 1}, which hears the impacts first)"
+        return text
+
+    def __repr__(self) -> str:
+        source = f" of {self.source}" if self.source else ""
+        return f"<OnsetTable{source}: {self.describe()}>"
+
+    # The rich displays of a notebook are the reporting layer's (imported only when shown,
+    # so that reading onsets never loads it).
+    def _repr_html_(self) -> str:
+        from drumroll.reporting.display import onsets_display, to_html
+
+        return to_html(onsets_display(self))
+
+    def _repr_markdown_(self) -> str:
+        from drumroll.reporting.display import onsets_display, to_markdown
+
+        return to_markdown(onsets_display(self, figure=False))
+
     # -- writing -------------------------------------------------------------------------
     def to_csv(self, *, all_candidates: bool = False) -> str:
         """The table as CSV text with the contract header (:data:`COLUMNS`).

@@ -268,8 +268,9 @@ class Document:
     title: str
     blocks: tuple[Block, ...]
 
-    def __add__(self, other: tuple[Block, ...]) -> Document:
-        return Document(self.title, (*self.blocks, *other))
+    def extended(self, *blocks: Block) -> Document:
+        """The document with ``blocks`` added at its end."""
+        return Document(self.title, (*self.blocks, *blocks))
 
 
 def iter_blocks(blocks: tuple[Block, ...]) -> Iterator[Block]:

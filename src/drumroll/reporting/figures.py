@@ -13,8 +13,10 @@ Every figure is a :class:`Figure` in :data:`FIGURES`, in the order the report sh
 * ``trace.png``: the main model's walkers and marginals, with R-hat and ESS.
 
 A figure draws what it is given (:class:`FigureInputs`: the fits and the summary) and
-computes no statistic of its own. Each file is written atomically. Adding a figure is one
-module with its ``draw``/``plot`` functions and one :class:`Figure` line here.
+computes no statistic of its own. Each file is written atomically; :meth:`Figure.build`
+gives the same figure as a :class:`matplotlib.figure.Figure` in memory (a notebook shows it
+inline: ``result.figure("corner")``). Adding a figure is one module with its
+``draw``/``plot`` functions and one :class:`Figure` line here.
 """
 
 from __future__ import annotations
@@ -28,12 +30,13 @@ from typing import Any
 from drumroll import fileio
 from drumroll.errors import DrumrollError
 from drumroll.inference.results import Summary
-from drumroll.reporting.bounce_series import plot_bounce_series
-from drumroll.reporting.comparison_plot import plot_comparison
-from drumroll.reporting.corner_plot import plot_corner
-from drumroll.reporting.onset_plot import write_onset_plot
-from drumroll.reporting.residuals import plot_residuals
-from drumroll.reporting.trace_plot import plot_trace
+from drumroll.reporting.bounce_series import draw_bounce_series, plot_bounce_series
+from drumroll.reporting.comparison_plot import draw_comparison, plot_comparison
+from drumroll.reporting.corner_plot import draw_corner, plot_corner
+from drumroll.reporting.onset_plot import draw_onset_figure, write_onset_plot
+from drumroll.reporting.plot_style import style
+from drumroll.reporting.residuals import draw_residuals, plot_residuals
+from drumroll.reporting.trace_plot import draw_trace, plot_trace
 
 
 @dataclass(frozen=True)
@@ -69,15 +72,21 @@ class FigureInputs:
 
 @dataclass(frozen=True)
 class Figure:
-    """One figure: its file, its caption and what to look for in it (the report's), when it
-    applies, and the function that draws it (module level, so a process pool can call it)."""
+    """One figure: its file, its caption and what to look for in it (the report's), the
+    function that draws it into its file (module level, so a process pool can call it), the
+    one that builds it in memory, and when it applies."""
 
     key: str
     file: str
     caption: str
     note: str
     draw: Callable[[FigureInputs, Path, bool], Path]
+    make: Callable[[FigureInputs], Any]
     applies: Callable[[FigureInputs], bool] = lambda inputs: True
+
+    def build(self, inputs: FigureInputs):
+        """The figure as a :class:`matplotlib.figure.Figure` (the one its file shows)."""
+        return self.make(inputs)
 
 
 def _onsets(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
@@ -108,29 +117,61 @@ def _trace(inputs: FigureInputs, path: Path, overwrite: bool) -> Path:
                       overwrite=overwrite)
 
 
+def _styled(draw: Callable[..., Any], *args: Any) -> Any:
+    with style():
+        return draw(*args)
+
+
+def _onsets_figure(inputs: FigureInputs) -> Any:
+    return draw_onset_figure(inputs.audio, inputs.onsets)
+
+
+def _bounce_series_figure(inputs: FigureInputs) -> Any:
+    return _styled(draw_bounce_series, inputs.summary)
+
+
+def _residuals_figure(inputs: FigureInputs) -> Any:
+    return _styled(draw_residuals, inputs.summary)
+
+
+def _comparison_figure(inputs: FigureInputs) -> Any:
+    return _styled(draw_comparison, inputs.summary.comparison, inputs.summary.loo, inputs.main)
+
+
+def _corner_figure(inputs: FigureInputs) -> Any:
+    return _styled(draw_corner, inputs.idatas[inputs.main], inputs.truths)
+
+
+def _trace_figure(inputs: FigureInputs) -> Any:
+    diagnostics = inputs.summary.diagnostics.get(inputs.main)
+    return _styled(draw_trace, inputs.idatas[inputs.main], inputs.summary.parameters,
+                   diagnostics.max_r_hat if diagnostics else 1.01)
+
+
 #: Every figure, by key, in the report's order.
 FIGURES: dict[str, Figure] = {f.key: f for f in (
     Figure("onsets", "onsets.png", "Detected onsets",
            "The recording with every detected impact; check that none is missing or "
-           "spurious.", _onsets, lambda inputs: inputs.audio is not None),
+           "spurious.", _onsets, _onsets_figure, lambda inputs: inputs.audio is not None),
     Figure("bounce_series", "bounce_series.png", "Bounce series",
            "Flight time against bounce number with each model's posterior median and 90 % "
            "band; the lower panel shows the differences from the main model, where exact and "
-           "small-angle pendulum part.", _bounce_series),
+           "small-angle pendulum part.", _bounce_series, _bounce_series_figure),
     Figure("residuals", "residuals.png", "Onset residuals",
            "Observed minus predicted onset times with the 90 % posterior predictive band. "
            "Random scatter: the model is adequate. A smooth pattern: the model, not the "
-           "microphone, is the limit.", _residuals),
+           "microphone, is the limit.", _residuals, _residuals_figure),
     Figure("comparison", "comparison.png", "Model comparison",
            "PSIS-LOO expected log predictive density per model (higher is better) and the log "
-           "Bayes factors of the main model over the others.", _comparison,
+           "Bayes factors of the main model over the others.", _comparison, _comparison_figure,
            lambda inputs: bool(inputs.summary.comparison)),
     Figure("corner", "corner.png", "Posterior",
            "One- and two-dimensional marginals of the main model's parameters; tilted "
-           "ellipses are correlations (the pivot-height-release-speed ridge).", _corner),
+           "ellipses are correlations (the pivot-height-release-speed ridge).", _corner,
+           _corner_figure),
     Figure("trace", "trace.png", "Sampler trace",
            "Walkers after burn-in; they should look like stationary noise around a common "
-           "level.", _trace),
+           "level.", _trace, _trace_figure),
 )}
 #: Roughly how long each figure takes to draw (s, the README's roll): the slowest are drawn
 #: first, so that parallel workers finish together.

@@ -87,6 +87,14 @@ def draw_onset_figure(audio: str | os.PathLike[str], table: OnsetTable):
     ax_zoom.set_ylabel("amplitude")
     ax_zoom.set_title("zoom on the fastest bounces (red: onsets, shaded ±1σ)")
 
+    flight_panel(ax_int, table)
+    return fig
+
+
+def flight_panel(ax, table: OnsetTable) -> None:
+    """Each roll's flight times against bounce number on a log axis, where a drumroll is
+    close to a straight line (a bounce not heard breaks the line)."""
+    t = table.time_s
     ends = single_flights(table.bounce, table.roll)
     colors = ("tab:red", "tab:blue", "tab:green", "tab:orange", "tab:purple", "tab:brown")
     for j, number in enumerate(table.rolls):
@@ -96,14 +104,23 @@ def draw_onset_figure(audio: str | os.PathLike[str], table: OnsetTable):
         k = np.arange(1, int(table.bounce[mine].max()) + 1)
         flights = np.full(k.size, np.nan)  # NaN next to a missing bounce: the line breaks
         flights[table.bounce[mine] - 1] = (t[mine] - t[mine - 1]) * 1e3
-        ax_int.semilogy(k, flights, "o-", color=colors[j % len(colors)], ms=3.5, lw=0.8,
-                        label=f"roll {number}" if len(table.rolls) > 1 else None)
+        ax.semilogy(k, flights, "o-", color=colors[j % len(colors)], ms=3.5, lw=0.8,
+                    label=f"roll {number}" if len(table.rolls) > 1 else None)
     if len(table.rolls) > 1:
-        ax_int.legend(loc="upper right", fontsize=8)
-    ax_int.set_xlabel("bounce number k")
-    ax_int.set_ylabel("flight time T_k (ms)")
-    ax_int.set_title("flight times (a drumroll is close to a straight line here)")
-    ax_int.grid(True, which="both", alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel("bounce number k")
+    ax.set_ylabel("flight time T_k (ms)")
+    ax.set_title("flight times (a drumroll is close to a straight line here)")
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def draw_flight_times(table: OnsetTable):
+    """The flight times of ``table`` alone (no recording needed): a
+    :class:`matplotlib.figure.Figure` of :func:`flight_panel`."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 3.2), layout="constrained")
+    flight_panel(fig.subplots(), table)
     return fig
 
 

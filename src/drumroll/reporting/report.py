@@ -422,7 +422,8 @@ def headline(summary: Summary) -> tuple[Block, ...]:
     return (Paragraph((Strong(("Result:",)), " ", *text, ".")),) if text else ()
 
 
-def _title(summary: Summary) -> str:
+def report_title(summary: Summary) -> str:
+    """``Drumroll estimate: roll.flac``."""
     return f"Drumroll estimate: {Path(str(summary.source or 'the recording')).name}"
 
 
@@ -439,7 +440,7 @@ def _facts(summary: Summary) -> Paragraph:
 def lead(summary: Summary) -> tuple[Block, ...]:
     """The report's opening, up to its headline: the title, the notes and warnings (before
     any number), what was fitted, the headline result."""
-    return (Heading(1, (_title(summary),)), *notes_section(summary.notes),
+    return (Heading(1, (report_title(summary),)), *notes_section(summary.notes),
             *warnings_section(summary), _facts(summary), *headline(summary))
 
 
@@ -464,7 +465,7 @@ def estimate_document(summary: Summary, figures: dict[str, Path | str] | None = 
     details = (*onsets_section(summary.onsets), *config_section(summary.config))
     if details:
         blocks += [Heading(2, ("Details",)), *details]
-    return Document(_title(summary), tuple(blocks))
+    return Document(report_title(summary), tuple(blocks))
 
 
 def render_report(summary: Summary, figures: dict[str, Path | str] | None = None,

@@ -120,6 +120,24 @@ class TableResult:
     joint: dict[str, Any] | None = None
     seconds: float = 0.0
 
+    def __repr__(self) -> str:
+        title = f" {self.runs.title!r}" if self.runs.title else f" of {self.runs.path.name}"
+        labels = ", ".join(run.label for run in self.runs.runs)
+        return (f"<drumroll table{title}: {len(self.rows)} runs ({labels}), "
+                f"{len(self.computed)} computed, {len(self.rows) - len(self.computed)} from "
+                "the cache>")
+
+    # The rich displays of a notebook: the table and its Figure 5.
+    def _repr_html_(self) -> str:
+        from drumroll.reporting.display import table_display, to_html
+
+        return to_html(table_display(self))
+
+    def _repr_markdown_(self) -> str:
+        from drumroll.table.formatting import to_markdown
+
+        return to_markdown(self)
+
 
 def file_digest(path: Path) -> str:
     """SHA-256 of a file's bytes (read in 1 MiB blocks)."""
