@@ -170,7 +170,7 @@ class Bars(Progress):
             ) -> Iterator[Bar]:
         tqdm = self._tqdm()
         options: dict[str, Any] = {"total": total, "initial": initial, "desc": description,
-                                   "unit": f" {unit}", "dynamic_ncols": True,
+                                   "unit": unit, "dynamic_ncols": True,
                                    "smoothing": 0.1}
         if tqdm.__module__ != "tqdm.notebook":  # a text bar: to our stream, always drawn
             options.update(file=self.stream, disable=False, mininterval=0.2)
