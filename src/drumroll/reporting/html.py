@@ -125,7 +125,8 @@ def png_dpi(data: bytes, default: float = 150.0) -> float:
     if at < 0 or len(data) < at + 13:
         return default
     per_unit, _, unit = struct.unpack(">IIB", data[at + 4:at + 13])
-    return per_unit * 0.0254 if unit == 1 and per_unit > 0 else default
+    # pixels per metre, a whole number: 5906 is 150.01 dpi, which is 150
+    return round(per_unit * 0.0254, 1) if unit == 1 and per_unit > 0 else default
 
 
 def _escape(text: str) -> str:
