@@ -145,6 +145,17 @@ def test_estimate_counts_its_models_on_a_terminal(tmp_path):
     assert (tmp_path / "out" / "report.html").exists()
 
 
+def test_simulate_of_many_recordings_counts_them_on_a_terminal(tmp_path):
+    config = tmp_path / "ball.toml"
+    config.write_text((ROOT / "data" / "table2_h80.toml").read_text(encoding="utf-8")
+                      .replace("sample_rate = 44100", "sample_rate = 16000"))
+    status, shown = run_on_terminal([*DRUMROLL, "simulate", str(config), "--count", "3", "-o",
+                                     str(tmp_path / "roll.flac")])
+    assert status == 0, shown
+    assert re.search(r"simulate:\s+100%\|.*\| 3/3 \[", shown), shown
+    assert len(list(tmp_path.glob("roll-*.flac"))) == 3
+
+
 def test_onsets_quiet_says_nothing(tmp_path):
     args = [*DRUMROLL, "onsets", str(ROOT / "data" / "table2_h80.flac"), "-o"]
     loud = subprocess.run([*args, str(tmp_path / "a.csv")], env=_environment(),

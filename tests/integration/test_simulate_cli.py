@@ -241,3 +241,26 @@ def test_subprocess_entry_point(tmp_path):
                             timeout=120)
     assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
     assert "simulate.alpha" in result.stderr
+
+
+def test_count_makes_numbered_recordings_with_consecutive_seeds(tmp_path, capsys):
+    config = write_config(tmp_path, jitter_ms=0.2)
+    code, err = simulate(tmp_path, config, "roll.wav", "--count", "3", "--seed", "3",
+                         capsys=capsys)
+    assert code == 0, err
+    names = sorted(p.name for p in tmp_path.glob("roll-*"))
+    assert names == ["roll-000.truth.json", "roll-000.wav", "roll-001.truth.json",
+                     "roll-001.wav", "roll-002.truth.json", "roll-002.wav"]
+    seeds = [json.loads((tmp_path / f"roll-00{i}.truth.json").read_text())["seed"]
+             for i in range(3)]
+    assert seeds == [3, 4, 5]
+    # each the recording a single run with its seed makes
+    assert simulate(tmp_path, config, "four.wav", "--seed", "4", capsys=capsys)[0] == 0
+    np.testing.assert_array_equal(sf.read(tmp_path / "four.wav")[0],
+                                  sf.read(tmp_path / "roll-001.wav")[0])
+    # not a terminal: news lines, no bar; then refused before any work without --force
+    assert err.count("impacts (") == 3 and "\r" not in err
+    code, err = simulate(tmp_path, config, "roll.wav", "--count", "3", capsys=capsys)
+    assert code == 2 and "roll-000.wav" in err
+    assert main(["simulate", str(config), "-o", str(tmp_path / "x.wav"), "--count", "2",
+                 "--truth", str(tmp_path / "t.json")]) == 2

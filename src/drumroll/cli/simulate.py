@@ -10,6 +10,10 @@ With ``hits`` in the section the impacts are recorded hits
 (:func:`~drumroll.simulation.render_hits`; the truth adds the files, each impact's velocity
 layer and level), and ``room = "file"`` is a measured room; their file names are relative to
 the config file's folder.
+
+With ``--count N`` it makes N recordings of the same set-up, each with its own seed (the
+seed, the seed + 1, …): ``roll.wav`` becomes ``roll-000.wav`` … with its truth beside each,
+and a terminal shows a bar of the recordings made, with the time left.
 """
 
 from __future__ import annotations
@@ -24,7 +28,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import soundfile as sf
 
-from drumroll.cli.arguments import non_negative_int
+from drumroll.cli.arguments import non_negative_int, positive_int
+from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.fileio import check_writable, write_together
 
@@ -50,33 +55,76 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="truth file (default: AUDIO with the suffix .truth.json)")
     parser.add_argument("--seed", type=non_negative_int, default=None,
                         help="random seed (default: the config's simulate.seed, else 0)")
+    parser.add_argument("--count", type=positive_int, default=1, metavar="N",
+                        help="make N recordings, seeds SEED, SEED + 1, …: AUDIO's name "
+                        "numbered (roll-000.wav, …), each truth beside its recording")
     parser.add_argument("--force", action="store_true", help="overwrite existing files")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress on stderr (with --count: no bar, no news lines)")
     parser.set_defaults(func=run)
+
+
+def numbered(path: Path, index: int, count: int) -> Path:
+    """The ``index``-th of ``count`` recordings named after ``path`` (``roll-007.wav``; the
+    path itself when there is one)."""
+    if count == 1:
+        return path
+    return path.with_name(f"{path.stem}-{index:0{max(3, len(str(count - 1)))}d}{path.suffix}")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``simulate``."""
-    # The simulator and the config's priors (scipy): imported only when it runs.
+    # The simulator and the config's priors (scipy): imported only when it runs (the
+    # simulator first: it registers the config's [simulate] section).
     from drumroll.config import load_config
-    from drumroll.simulation.simulate import simulate
+    from drumroll.simulation.simulate import simulate  # noqa: F401
 
     output = Path(args.output)
     container = CONTAINERS.get(output.suffix.lower())
     if container is None:
         raise DrumrollError(f"{output}: unknown audio container {output.suffix!r} "
                             f"(expected one of: {', '.join(CONTAINERS)})")
+    if args.truth and args.count > 1:
+        raise DrumrollError("--truth names one file; with --count each truth is written "
+                            "beside its recording (roll-000.truth.json, …)")
     truth_path = Path(args.truth) if args.truth else output.with_suffix(".truth.json")
     if truth_path.resolve() == output.resolve():
         raise DrumrollError(f"{truth_path}: the truth file cannot be the recording itself")
     config = load_config(args.config)
     settings: SimulateSettings | None = config.section("simulate")
+    subtype = None
     if settings is not None:  # simulate() says what is missing otherwise
         subtype = _subtype(container, settings, output)
-    check_writable(output, overwrite=args.force)  # fail before the work, not after it
-    check_writable(truth_path, overwrite=args.force)
     if args.seed is not None and args.seed < 0:
         raise DrumrollError(f"--seed: must not be negative, got {args.seed}")
-    simulated = simulate(config, seed=args.seed)
+    targets = [(numbered(output, i, args.count),
+                numbered(output, i, args.count).with_suffix(".truth.json")
+                if args.count > 1 else truth_path) for i in range(args.count)]
+    for recording, truth in targets:  # fail before the work, not after it
+        check_writable(recording, overwrite=args.force)
+        check_writable(truth, overwrite=args.force)
+    if args.count == 1:
+        print(_simulate_one(config, args, output, truth_path, args.seed, container, subtype))
+        return 0
+    first = args.seed if args.seed is not None else \
+        (settings.seed if settings is not None and settings.seed is not None else 0)
+    progress = Progress(quiet=args.quiet)
+    with progress.bar(args.count, "simulate", "recording") as bar:
+        for i, (recording, truth) in enumerate(targets):
+            progress.say(_simulate_one(config, args, recording, truth, first + i, container,
+                                       subtype))
+            bar.advance(note=recording.name)
+    print(f"{targets[0][0]} … {targets[-1][0]}: {args.count} recordings (seeds {first}–"
+          f"{first + args.count - 1}), each truth beside its recording")
+    return 0
+
+
+def _simulate_one(config, args: argparse.Namespace, output: Path, truth_path: Path,
+                  seed: int | None, container: str, subtype: str | None) -> str:
+    """Make one recording and its truth (both or neither); the line saying what was made."""
+    from drumroll.simulation.simulate import simulate
+
+    simulated = simulate(config, seed=seed)
     settings, rendering = simulated.settings, simulated.rendering
     rest = dict(simulated.truth)
     truth = {**{key: rest.pop(key) for key in ("drumroll_version", "seed")},
@@ -93,10 +141,9 @@ def run(args: argparse.Namespace) -> int:
                                                            encoding="utf-8")},
                    overwrite=args.force)
     audible = int(np.sum(rendering.local_snr_db > 0))
-    print(f"{output}: {len(rendering.impact_times_s)} impacts ({audible} with local SNR > 0 dB), "
-          f"{rendering.duration_s:.2f} s, {settings.sample_rate} Hz, {settings.channels} ch, "
-          f"{subtype}; truth in {truth_path}")
-    return 0
+    return (f"{output}: {len(rendering.impact_times_s)} impacts ({audible} with local SNR > 0 "
+            f"dB), {rendering.duration_s:.2f} s, {settings.sample_rate} Hz, "
+            f"{settings.channels} ch, {subtype}; truth in {truth_path}")
 
 
 def _subtype(container: str, settings: SimulateSettings, output: Path) -> str:
