@@ -83,10 +83,10 @@ POOLS: dict[str, tuple[list[str], list[str]]] = {
     "runs": (["runs.toml"], INPUTS), "prior": (["quick.toml"], INPUTS),
     "truth": (["truth.json"], ["array.json", "missing.json", "ball.txt", "o.json", "."]),
     "simulate.truth": (["t.json", "o.truth.json"], OUTPUTS),
-    "format": (["markdown", "csv", "latex", "json"], ["md", "", "xml"]),
+    "format": (["markdown", "html", "csv", "latex", "json"], ["md", "", "xml"]),
     "onsets.output": (["o.csv", "o.txt"], OUTPUTS), "labels": (["o.lab", "o.txt"], OUTPUTS),
     "simulate.output": (["o.wav", "o.flac", "o.ogg"], ["o.mp3", *OUTPUTS]),
-    "table.output": (["o.md", "o.csv", "o.tex", "o.json"], OUTPUTS),
+    "table.output": (["o.md", "o.html", "o.csv", "o.tex", "o.json"], OUTPUTS),
     "plot": (["o.png", "o.pdf"], OUTPUTS),
     "out": (["fresh"], ["done", "ball.txt", "missing/deeper", "/proc/x", ""]),
     "cache_dir": (["cache"], ["ball.txt", "/proc/c", ""]),
@@ -94,6 +94,9 @@ POOLS: dict[str, tuple[list[str], list[str]]] = {
     "seed": (["0", "7"], NUMBERS), "roll": (["0", "1"], NUMBERS),
     "stream": (["0", "1"], NUMBERS), "workers": (["1", "2"], NUMBERS),
     "highpass": (["100", "3000"], NUMBERS), "threshold": (["3", "8"], NUMBERS),
+    # simulate --count: a few recordings, or a count refused (a large one would only take
+    # long: one recording each)
+    "count": (["1", "2"], ["-1", "0", "0.5", "", "abc", "1e9", "１", "0x10"]),
 }
 #: Options left out: --dask waits ten seconds for a scheduler that is not there.
 LEFT_OUT = {"dask", "help", "version"}
