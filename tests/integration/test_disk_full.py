@@ -101,10 +101,11 @@ def test_table_and_figure_are_written_together_or_neither(tmp_path, ball):
     runs.write_text(f'base = "{config.name}"\n'
                     f'[[run]]\nlabel = "a"\nsource = "{onsets.name}"\n')
     table, figure = tmp_path / "t.md", tmp_path / "t.png"
+    page = tmp_path / "t.html"  # the table's HTML page, the figure embedded: the largest
     line = one_line(drumroll("table", runs, "-o", table, "--plot", figure, "-q",
                              "--no-cache"))
-    assert line.startswith(f"drumroll: error: {figure}: cannot write it: the file would exceed")
-    assert not table.exists() and not figure.exists()
+    assert line.startswith(f"drumroll: error: {page}: cannot write it: the file would exceed")
+    assert not table.exists() and not figure.exists() and not page.exists()
 
 
 @pytest.fixture
