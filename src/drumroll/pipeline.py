@@ -455,7 +455,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         (see :func:`choose_roll`).
     progress
         Where the estimate reports its stages (:func:`drumroll.progress.as_progress`): None
-        shows a bar of the models sampled where a person watches (a terminal, a notebook)
+        shows a bar of the fits sampled where a person watches (a terminal, a notebook)
         and nothing elsewhere; False nothing; a callable is called with a line of news at
         each stage (the command line prints them on stderr); or a
         :class:`~drumroll.progress.Progress`.

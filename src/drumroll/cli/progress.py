@@ -1,5 +1,5 @@
 """The commands' progress on stderr: on a terminal, a tqdm bar with an ETA for a count of
-things (a table's runs, an estimate's models, a simulation's recordings), a spinner with the
+things (a table's runs, an estimate's fits, a simulation's recordings), a spinner with the
 elapsed time for a stage that cannot be counted, and news lines above them; elsewhere (a
 pipe, a log file) the news lines alone, plain; with ``--quiet``, nothing.
 
