@@ -16,7 +16,12 @@ from drumroll.config import Config, load_config
 from drumroll.errors import ConfigError
 from drumroll.simulation.render import Rendering, render
 from drumroll.simulation.render_hits import render_hits
-from drumroll.simulation.settings import SimulateSettings, load_recorded, true_impacts
+from drumroll.simulation.settings import (
+    RecordedSources,
+    SimulateSettings,
+    load_recorded,
+    true_impacts,
+)
 
 
 @dataclass(frozen=True)
@@ -47,6 +52,23 @@ class Simulated:
     def samples(self) -> NDArray[np.float64]:
         """The audio, (frames,) or (frames, channels), full scale ±1."""
         return self.rendering.samples
+
+
+def render_roll(settings: SimulateSettings, sources: RecordedSources, times_s: NDArray,
+                speeds_m_s: NDArray, rng: np.random.Generator) -> Rendering:
+    """The recording of a roll's impacts (times from any origin, tip speeds) as a
+    ``[simulate]`` section's sound makes it: its recorded hits or synthetic drum, its room,
+    its disturbances and level (``sources``: what :func:`load_recorded` read for it). The one
+    renderer of ``drumroll simulate`` and of ``drumroll calibrate --audio``."""
+    room = settings.room if sources.room is None else sources.room
+    if sources.bank is not None:
+        return render_hits(times_s, speeds_m_s, bank=sources.bank, room=room,
+                           disturbances=settings.disturbances, channels=settings.channels,
+                           extra_hits=sources.extra_hits, rng=rng,
+                           peak_dbfs=settings.peak_dbfs, clip_db=settings.clip_db)
+    return render(times_s, speeds_m_s, sample_rate=settings.sample_rate, drum=settings.drum,
+                  room=room, disturbances=settings.disturbances, channels=settings.channels,
+                  rng=rng, peak_dbfs=settings.peak_dbfs, clip_db=settings.clip_db)
 
 
 def simulate(config: Config | str | os.PathLike[str], seed: int | None = None) -> Simulated:
@@ -89,19 +111,7 @@ def simulate(config: Config | str | os.PathLike[str], seed: int | None = None) -
         roll = true_impacts(settings, stick, config.gravity, rng_roll)
     except ConfigError as exc:
         raise ConfigError(f"{lead}{exc}") from None
-    room = settings.room if sources.room is None else sources.room
-    if sources.bank is not None:
-        rendering = render_hits(roll["times_s"], roll["speeds_m_s"], bank=sources.bank,
-                                room=room, disturbances=settings.disturbances,
-                                channels=settings.channels, extra_hits=sources.extra_hits,
-                                rng=rng_sound, peak_dbfs=settings.peak_dbfs,
-                                clip_db=settings.clip_db)
-    else:
-        rendering = render(roll["times_s"], roll["speeds_m_s"],
-                           sample_rate=settings.sample_rate, drum=settings.drum, room=room,
-                           disturbances=settings.disturbances, channels=settings.channels,
-                           rng=rng_sound, peak_dbfs=settings.peak_dbfs,
-                           clip_db=settings.clip_db)
+    rendering = render_roll(settings, sources, roll["times_s"], roll["speeds_m_s"], rng_sound)
     truth = {
         "drumroll_version": __version__,
         "seed": seed,
