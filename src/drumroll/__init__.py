@@ -23,6 +23,7 @@ From Python, each command is a function (imported on first use)::
     predictions = drumroll.predict("roll.toml")             # drumroll predict
     recording = drumroll.simulate("roll.toml", seed=1)      # drumroll simulate
     table = drumroll.run_table(drumroll.load_runs("runs.toml"))  # drumroll table
+    calibration = drumroll.calibrate("roll.toml", n=200)     # drumroll calibrate
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ _API = {
     "load_runs": ("drumroll.table.runs", "load_runs"),                # drumroll table
     "run_table": ("drumroll.table.execute", "run_table"),
     "load_config": ("drumroll.config.loader", "load_config"),
+    "calibrate": ("drumroll.calibration.run", "calibrate"),           # drumroll calibrate
 }
 
 __all__ = ["__version__", *_API]

@@ -512,11 +512,11 @@ def check_calibration(config: Config, n: int, n_onsets: int, audio: bool) -> Non
     from drumroll.inference.settings import estimate_settings
 
     if not 1 <= n <= MAX_SIMULATIONS:
-        raise DrumrollError(f"n: the number of simulations must lie in 1 … {MAX_SIMULATIONS}, "
-                            f"got {n}")
+        raise DrumrollError(f"--n: the number of simulations must lie in 1 … "
+                            f"{MAX_SIMULATIONS}, got {n}")
     if not MIN_ONSETS <= n_onsets <= MAX_ONSETS:
-        raise DrumrollError(f"onsets: a simulated roll must have {MIN_ONSETS} … {MAX_ONSETS} "
-                            f"onsets, got {n_onsets}")
+        raise DrumrollError(f"--onsets: a simulated roll must have {MIN_ONSETS} … "
+                            f"{MAX_ONSETS} onsets, got {n_onsets}")
     lead = f"{config.path}: " if config.path else ""
     simulator = RollSimulator(config, config.model, n_onsets)
     roll = simulator.draw(np.random.default_rng(0))
@@ -583,7 +583,7 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
     if not isinstance(config, Config):
         config = load_config(config)
     if seed < 0:
-        raise DrumrollError(f"seed: must not be negative, got {seed}")
+        raise DrumrollError(f"--seed: must not be negative, got {seed}")
     if rank_draws < 1:
         raise DrumrollError(f"rank_draws: must be at least 1, got {rank_draws}")
     check_calibration(config, n, n_onsets, audio)

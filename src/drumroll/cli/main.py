@@ -25,7 +25,7 @@ from drumroll._version import __version__
 from drumroll.errors import DrumrollError, DrumrollWarning
 
 #: Subcommand modules, in the order ``drumroll --help`` lists them.
-SUBCOMMANDS = ("predict", "onsets", "simulate", "estimate", "table")
+SUBCOMMANDS = ("predict", "onsets", "simulate", "estimate", "table", "calibrate")
 
 
 def build_parser() -> argparse.ArgumentParser:
