@@ -61,6 +61,7 @@ def template():
                      "empty-estimate", "notaudio-estimate", "missing-estimate"):
             (folder / stem).mkdir()
             (folder / stem / "summary.json").write_text("{}\n")
+        (folder / "done" / "calibration.json").write_text("{}\n")
         yield folder
 
 
@@ -97,6 +98,8 @@ POOLS: dict[str, tuple[list[str], list[str]]] = {
     # simulate --count: a few recordings, or a count refused (a large one would only take
     # long: one recording each)
     "count": (["1", "2"], ["-1", "0", "0.5", "", "abc", "1e9", "１", "0x10"]),
+    "calibrate.config": (["quick.toml"], INPUTS), "calibrate.n": (["1", "2"], NUMBERS),
+    "calibrate.onsets": (["4", "6"], NUMBERS),
 }
 #: Options left out: --dask waits ten seconds for a scheduler that is not there.
 LEFT_OUT = {"dask", "help", "version"}
@@ -118,6 +121,8 @@ def values(command: str, action: argparse.Action, slow: bool) -> st.SearchStrate
         bad = NUMBERS if action.type is not None else [*INPUTS, *OUTPUTS]
     if command == "estimate" and action.dest == "out" and not slow:
         good = []  # the fast test never samples: every output folder is refused
+    if command == "calibrate" and action.dest == "out" and not slow:
+        good, bad = [], ["done", "ball.txt", "missing/deeper", "/proc/x"]  # likewise
     return st.one_of(*(st.sampled_from(pool) for pool in (good, bad) if pool))
 
 
@@ -138,10 +143,13 @@ def argument_lists(draw, slow: bool = False) -> list[str]:
         argv.append(draw(st.sampled_from(action.option_strings)))
         if action.nargs != 0:
             argv.append(draw(values(command, action, slow)))
-    if command in ("estimate", "table") and "-q" not in argv:
+    if command in ("estimate", "table", "calibrate") and "-q" not in argv:
         argv.append("-q")
-    if command == "estimate" and not slow and "-o" not in argv and "--out" not in argv:
+    if command in ("estimate", "calibrate") and not slow and "-o" not in argv \
+            and "--out" not in argv:
         argv += ["-o", "done"]  # the fast test never samples
+    if command == "calibrate" and "--n" not in argv:
+        argv += ["--n", "2"]  # a few quick fits, not the default 200
     if draw(st.integers(0, 9)) == 9:
         argv.insert(draw(st.integers(1, len(argv))), draw(st.sampled_from(
             ["--bogus", "-x", "extra", "--", "--debug"])))

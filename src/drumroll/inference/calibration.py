@@ -151,6 +151,8 @@ def binomial_quantile(q: float, n: int, p: float) -> int:
     """The smallest k with P(Binomial(n, p) ≤ k) ≥ q (the binomial's quantile function)."""
     if not 0.0 <= q <= 1.0:
         raise ValueError("q must lie in [0, 1]")
+    if q == 1.0:  # the CDF reaches 1 exactly only at n (in floating point, sooner)
+        return int(n)
     k = np.arange(n + 1)
     cdf = special.bdtr(k, n, p)
     # The CDF is computed, not exact: a q it meets to rounding counts as met.

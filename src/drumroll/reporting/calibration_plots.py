@@ -56,9 +56,11 @@ def draw_ranks(result: Any):
         low, high = first.band
         expected = first.n / bins
         ax.axhspan(low, high, color="0.88", lw=0, zorder=0)
+        for edge in (low, high):  # the band's ends, seen over the bars too
+            ax.axhline(edge, color="0.6", lw=0.6, ls=":", zorder=2.5)
         ax.axhline(expected, color="0.55", lw=0.8, zorder=1)
         ax.bar(edges[:-1], first.histogram, width=width, align="edge",
-               color=LEVEL_COLORS["onsets"], alpha=0.75, lw=0, zorder=2)
+               color=OKABE_ITO["sky"], edgecolor="white", lw=0.4, zorder=2)
         title = [f"{parameter_symbol(key)}: p = {first.chi_square.p_value:.2g}"]
         if "audio" in levels and key in levels["audio"].quantities:
             heard = levels["audio"].quantities[key]
@@ -108,7 +110,16 @@ def draw_coverage(result: Any):
             ax.errorbar(rates, ys, xerr=[lows, highs], fmt="o", ms=4.5, capsize=2.5,
                         color=LEVEL_COLORS[name], elinewidth=1.2, label=LEVEL_NAMES[name],
                         zorder=3)
-        ax.set_title(f"{nominal:.0%} central intervals (grey: 99 % band)", fontsize=9.5)
+        # The band with room on both sides, so that it reads as a band.
+        ends = [band.band_low, band.band_high, *(
+            getattr(q, f"coverage_{round(nominal * 100)}").low for level in levels.values()
+            for q in level.quantities.values()), *(
+            getattr(q, f"coverage_{round(nominal * 100)}").high for level in levels.values()
+            for q in level.quantities.values())]
+        pad = 0.3 * (band.band_high - band.band_low)
+        ax.set_xlim(max(0.0, min(ends) - pad), min(1.0, max(ends) + pad))
+        ax.set_title(f"{nominal * 100:.0f} % central intervals (grey: 99 % band)",
+                     fontsize=9.5)
         ax.set_xlabel("share holding the truth")
         ax.grid(True, axis="x", color="0.93", lw=0.6)
         ax.set_axisbelow(True)
