@@ -60,6 +60,20 @@ def test_the_same_seed_gives_the_same_calibration_whatever_the_workers(quick, qu
     assert _without_seconds(other) != _without_seconds(quick_result)
 
 
+def test_dask_gives_the_same_calibration(quick, quick_result, tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) \
+            as cluster:
+        status = main(["calibrate", str(quick), "--n", "4", "--onsets", "8", "--seed", "3",
+                       "--dask", cluster.scheduler_address, "-o", str(out)])
+    assert status == 0, capsys.readouterr().err
+    result = CalibrationResult.from_json(json.loads((out / "calibration.json").read_text()))
+    for draw, again in zip(result.draws, quick_result.draws, strict=True):
+        assert draw.onsets.rank == again.onsets.rank
+        assert draw.truth == pytest.approx(again.truth, rel=1e-12)
+
+
 def test_the_result_holds_every_number_and_reads_back(quick_result, tmp_path):
     result = quick_result
     assert isinstance(result, CalibrationResult)

@@ -25,7 +25,6 @@ import os
 import platform
 import re
 import time
-import warnings
 from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import Executor, Future, as_completed
@@ -153,8 +152,6 @@ class DrawRecord(Record):
     audio, hearing, audio_t0_s
         With ``audio``: the fit of the extractor's onsets, how it heard the roll, and the
         truth of that fit's T0 (the impact its first onset belongs to).
-    warnings
-        Warnings the fits raised (each once).
     seconds
         Wall time of the simulation and its fits.
     """
@@ -170,7 +167,6 @@ class DrawRecord(Record):
     audio: FitRecord | None = None
     hearing: Hearing | None = None
     audio_t0_s: float | None = None
-    warnings: tuple[str, ...] = ()
     seconds: float = 0.0
 
 
@@ -385,44 +381,41 @@ def run_draw(raw: dict[str, Any], path: str | None, index: int, options: dict[st
     recorder = Recorder(config) if options["audio"] else None
     fitting = fit_config(config, fit_seed)
     attempts, rejected = 0, Counter()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        while True:
-            roll = simulator.draw(roll_rng)
-            attempts += roll.attempts
-            rejected.update(roll.rejected)
-            if attempts > MAX_ATTEMPTS:
-                reason = rejected.most_common(1)[0][0] if rejected else "none"
-                raise DrumrollError(f"no roll the estimate takes in {attempts} draws from the "
-                                    f"priors (the commonest reason: {reason})")
-            heard = None
-            if recorder is not None:
-                heard = recorder.record(roll, sound_rng)
-                if heard.hearing.n_heard < MIN_ONSETS:
-                    rejected[TOO_FEW_HEARD] += 1
-                    continue
-            try:
-                begun = time.perf_counter()
-                result = estimate(_onset_table(roll.times), fitting)
-                onset_seconds = time.perf_counter() - begun
-                begun = time.perf_counter()
-                heard_result = None if heard is None else estimate(heard.onsets, fitting)
-                audio_seconds = time.perf_counter() - begun
-            except DrumrollError as exc:
-                rejected[_refused(exc)] += 1
+    while True:
+        roll = simulator.draw(roll_rng)
+        attempts += roll.attempts
+        rejected.update(roll.rejected)
+        if attempts > MAX_ATTEMPTS:
+            reason = rejected.most_common(1)[0][0] if rejected else "none"
+            raise DrumrollError(f"no roll the estimate takes in {attempts} draws from the "
+                                f"priors (the commonest reason: {reason})")
+        heard = None
+        if recorder is not None:
+            heard = recorder.record(roll, sound_rng)
+            if heard.hearing.n_heard < MIN_ONSETS:
+                rejected[TOO_FEW_HEARD] += 1
                 continue
-            break
+        try:
+            begun = time.perf_counter()
+            result = estimate(_onset_table(roll.times), fitting)
+            onset_seconds = time.perf_counter() - begun
+            begun = time.perf_counter()
+            heard_result = None if heard is None else estimate(heard.onsets, fitting)
+            audio_seconds = time.perf_counter() - begun
+        except DrumrollError as exc:
+            rejected[_refused(exc)] += 1
+            continue
+        break
     truth = _truths(result.fits[result.model].log_posterior, roll)
     onsets = _fit_record(result, truth, options["rank_draws"], choice_rng, onset_seconds)
     audio = None
     if heard_result is not None:
         audio = _fit_record(heard_result, {**truth, "t0_s": heard.t0}, options["rank_draws"],
                             choice_rng, audio_seconds)
-    messages = tuple(dict.fromkeys(" ".join(str(w.message).split()) for w in caught))
     return DrawRecord(index=index, attempts=attempts, rejected=dict(rejected), truth=truth,
                       onsets=onsets, audio=audio,
                       hearing=None if heard is None else heard.hearing,
-                      audio_t0_s=None if heard is None else heard.t0, warnings=messages,
+                      audio_t0_s=None if heard is None else heard.t0,
                       seconds=time.perf_counter() - started)
 
 
