@@ -518,12 +518,12 @@ def check_calibration(config: Config, n: int, n_onsets: int, audio: bool) -> Non
         LogPosterior.build(config, config.model, OnsetData.from_arrays(roll.times),
                            settings.noise, settings.nu)
     except DrumrollError as exc:
-        raise type(exc)(f"{lead}{exc}") from None
+        raise DrumrollError(f"{lead}{exc}", exc.exit_code) from None
     if audio:
         try:
             Recorder(config)
         except DrumrollError as exc:
-            raise type(exc)(f"{lead}{exc}") from None
+            raise DrumrollError(f"{lead}{exc}", exc.exit_code) from None
 
 
 def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
@@ -604,7 +604,11 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
            f"in {count} process{'es' if count > 1 else ''}"))
     if executor is None and count == 1:
         for i in range(n):
-            finish(run_draw(config.raw, path, i, options))
+            try:
+                record = run_draw(config.raw, path, i, options)
+            except DrumrollError as exc:
+                raise _named(i, exc) from None
+            finish(record)
     elif executor is not None:
         _run_all(executor, config.raw, path, n, options, finish)
     else:
@@ -634,6 +638,11 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
         cpu_seconds=sum(d.seconds for d in draws))
 
 
+def _named(index: int, exc: DrumrollError) -> DrumrollError:
+    """``exc`` as one line naming the simulation it came from."""
+    return DrumrollError(f"simulation {index}: {exc}", exc.exit_code)
+
+
 def _run_all(executor: Executor, raw: dict[str, Any], path: str | None, n: int,
              options: dict[str, Any], finish: Callable[[DrawRecord], None]) -> None:
     """Submit every simulation; hand each record to ``finish`` as it completes. A failure
@@ -643,9 +652,10 @@ def _run_all(executor: Executor, raw: dict[str, Any], path: str | None, n: int,
     try:
         for future in as_completed(futures):
             try:
-                finish(future.result())
+                record = future.result()
             except DrumrollError as exc:
-                raise type(exc)(f"simulation {futures[future]}: {exc}") from None
+                raise _named(futures[future], exc) from None
+            finish(record)
     except BaseException:
         for future in futures:
             future.cancel()

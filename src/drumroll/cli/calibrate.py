@@ -73,7 +73,9 @@ def run(args: argparse.Namespace) -> int:
             result = calibrate(config, **options)
     with progress.stage(f"writing {out_dir}"):
         write_calibration(result, out_dir, overwrite=args.force)
-    print("\n".join(line for line in headline(result) if line).replace("**", ""))
+    # The report's headline, its Markdown taken off for the terminal.
+    print("\n".join(line for line in headline(result) if line).replace("**", "")
+          .replace("`", ""))
     print(f"\nresults in {out_dir}/ ({', '.join(CALIBRATION_FILES.values())})")
     # A parameter that fails is a finding, said in the headline, not an error of the run.
     return 0

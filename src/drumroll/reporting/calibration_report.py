@@ -21,6 +21,7 @@ from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
+from drumroll.inference.calibration import MIN_EXPECTED
 from drumroll.quantities import QUANTITIES
 from drumroll.reporting.plot_style import missing_glyphs_said_once
 
@@ -93,7 +94,7 @@ def _failure(q: Any) -> str:
     why = []
     if not c.inside:
         why.append(f"90 % coverage {c.rate:.2f}, outside {c.band_low:.2f} … {c.band_high:.2f}")
-    if not q.chi_square.p_value >= 0.01:
+    if q.chi_square.p_value < 0.01:
         why.append(f"ranks not uniform, χ² p = {q.chi_square.p_value:.2g}")
     return f"{_label(q.key)} ({'; '.join(why)})"
 
@@ -110,8 +111,10 @@ def headline(result: Any) -> list[str]:
         failed = level.failed()
         if not failed:
             listed = ", ".join(map(_label, level.parameters))
+            tested = all(level.quantities[k].chi_square.dof for k in level.parameters)
             verdict = (f"**Every parameter is calibrated** ({listed}): its 90 % coverage lies "
-                       "inside the binomial 99 % band and its ranks pass the χ² test at 1 %")
+                       "inside the binomial 99 % band"
+                       + (" and its ranks pass the χ² test at 1 %" if tested else ""))
         else:
             verdict = ("**Not calibrated:** "
                        + "; ".join(_failure(level.quantities[k]) for k in failed)
@@ -125,6 +128,9 @@ def headline(result: Any) -> list[str]:
                 "all pass." if not derived_failed
                 else f"fail: {', '.join(map(_label, derived_failed))}.")
         lines += [f"Fitting {source}: {verdict}.{derived}", ""]
+    if any(q.chi_square.dof == 0 for q in result.onsets.quantities.values()):
+        lines += [f"{settings.n} simulations are too few for the χ² test of the ranks (it "
+                  f"needs {2 * MIN_EXPECTED} or more): the coverage alone decides.", ""]
     lines.insert(0, f"Simulation-based calibration (Talts et al. 2018) of {what}.")
     lines.insert(1, "")
     return lines
