@@ -12,9 +12,14 @@ errors are all that differs from fitting the onsets themselves.
 
 from __future__ import annotations
 
+import contextlib
 import io
+import signal
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +29,40 @@ from drumroll.config import Config
 from drumroll.inference.results import Record
 from drumroll.onsets import OnsetTable, detect
 from drumroll.pipeline import choose_roll
+
+#: Longest the extractor may take on one simulated recording (a few seconds of audio, found
+#: in well under a second as a rule). Some rolls with a jitter of several ms keep its
+#: window-by-window search going for tens of minutes; such a recording is drawn again
+#: (:class:`TooSlow`), a selection on the data, and counted.
+EXTRACTOR_SECONDS = 60.0
+
+
+class TooSlow(Exception):
+    """The extractor took longer than its time limit on a recording."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float) -> Iterator[None]:
+    """Raise :class:`TooSlow` in this block once ``seconds`` of wall time have passed.
+
+    A real-time timer's signal interrupts the block: only in a process's main thread, where
+    signal handlers can be set (the command's workers, a script); in another thread (a Dask
+    worker's) the block runs without a limit.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expire(signum: int, frame: Any) -> None:
+        raise TooSlow(f"the extractor took more than {seconds:g} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 @dataclass(frozen=True)
@@ -123,7 +162,8 @@ class Recorder:
                  format="WAV")
         buffer.seek(0)
         samples, rate = sf.read(buffer, dtype="float64")
-        onsets = detect(samples, rate)
+        with time_limit(EXTRACTOR_SECONDS):
+            onsets = detect(samples, rate)
         impacts = rendering.impact_times_s  # the onsets as placed in the file (noise included)
         noise_free = rendering.lead_in_s + (roll.model_times - roll.t0)
         hearing, first = match(onsets, impacts)

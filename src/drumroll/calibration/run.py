@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from drumroll._version import __version__
-from drumroll.calibration.recording import Hearing, Recorder
+from drumroll.calibration.recording import EXTRACTOR_SECONDS, Hearing, Recorder, TooSlow
 from drumroll.calibration.roll import MAX_ATTEMPTS, RollSimulator, SimulatedRoll
 from drumroll.config import Config, load_config, parse_config
 from drumroll.errors import DrumrollError
@@ -72,6 +72,8 @@ PRIOR_DRAWS = 20_000
 LEVELS = ("onsets", "audio")
 
 TOO_FEW_HEARD = "the extractor found fewer than 4 onsets"
+EXTRACTOR_TOO_SLOW = (f"the extractor took more than {EXTRACTOR_SECONDS:g} s on the "
+                      "recording")
 
 
 @dataclass(frozen=True)
@@ -368,9 +370,10 @@ def run_draw(raw: dict[str, Any], path: str | None, index: int, options: dict[st
     extract and fit again), and rank. Runs in a worker (a process or a Dask worker): it takes
     only plain, picklable inputs.
 
-    A roll the pipeline cannot take (the extractor hearing fewer than 4 onsets, the estimate
-    refusing the onsets) is drawn again with its parameter point: a selection on the data
-    alone, under which the calibration stays valid (:mod:`.roll`).
+    A roll the pipeline cannot take (the extractor hearing fewer than 4 onsets or taking
+    longer than :data:`~.recording.EXTRACTOR_SECONDS`, the estimate refusing the onsets) is
+    drawn again with its parameter point: a selection on the data alone, under which the
+    calibration stays valid (:mod:`.roll`).
     """
     from drumroll.pipeline import estimate
 
@@ -391,7 +394,11 @@ def run_draw(raw: dict[str, Any], path: str | None, index: int, options: dict[st
                                 f"priors (the commonest reason: {reason})")
         heard = None
         if recorder is not None:
-            heard = recorder.record(roll, sound_rng)
+            try:
+                heard = recorder.record(roll, sound_rng)
+            except TooSlow:
+                rejected[EXTRACTOR_TOO_SLOW] += 1
+                continue
             if heard.hearing.n_heard < MIN_ONSETS:
                 rejected[TOO_FEW_HEARD] += 1
                 continue

@@ -156,3 +156,29 @@ def test_onsets_are_matched_with_their_impacts_through_their_numbers():
     kept = np.r_[0:5, 6:12]
     hearing, first = match(_table(impacts[kept], kept), impacts)
     assert (first, hearing.misnumbered) == (0, 0)
+
+
+def test_the_extractor_s_time_limit_stops_a_block_in_the_main_thread_only():
+    import threading
+    import time
+
+    from drumroll.calibration.recording import TooSlow, time_limit
+
+    started = time.perf_counter()
+    with pytest.raises(TooSlow), time_limit(0.2):
+        time.sleep(5)
+    assert time.perf_counter() - started < 2
+    with time_limit(5):  # a block that ends in time: nothing left armed
+        pass
+    time.sleep(0.05)
+    outcome = []
+
+    def elsewhere():
+        with time_limit(0.01):
+            time.sleep(0.1)
+        outcome.append("ran without a limit")
+
+    thread = threading.Thread(target=elsewhere)
+    thread.start()
+    thread.join()
+    assert outcome == ["ran without a limit"]
