@@ -13,13 +13,12 @@ restitution law's exponent, say) is drawn and simulated here without a change:
   pivot past the centre of mass, the cone's rim striking before its tip, a rebound over the
   top) is drawn again. The posterior gives such points zero probability, so the prior the
   fit uses is the prior truncated to them, and redrawing samples exactly that;
-* a restitution that scatters from bounce to bounce is simulated bounce by bounce, not
-  linearised as the likelihood integrates it: α_j = α e^{ε_j}, ε_j ~ N(0, s²), and flight k,
-  which depends on the restitutions only through u_k = Σ_{j≤k} ln α_j
-  (:meth:`~drumroll.physics.model.ForwardModel.restitution_slopes`), is flight k of a drop
-  with the constant α e^{(ε_1 + … + ε_k)/k}, computed exactly by the model's kernel. A draw
-  whose scattered restitution would exceed 1 (a bounce that gains energy, which no model
-  computes) is made again, and counted;
+* a restitution that scatters from bounce to bounce is simulated impact by impact, not
+  linearised as the likelihood integrates it: impact k's restitution is the law's for the
+  speed it comes in with, times e^{ε_k}, ε_k ~ N(0, s²), so the rebound-speed ratios r_k
+  (:mod:`drumroll.physics.restitution`) carry every earlier scatter, and the motion's kernel
+  turns them into flights exactly. A draw whose scattered restitution would exceed 1 (a
+  bounce that gains energy, which no model computes) is made again, and counted;
 * the onsets are t_k = T0 + τ_k + e_k, the timing noise e_k Gaussian or Student-t with the
   jitter as its scale, as ``[likelihood] noise`` says; every bounce 0 … K is heard (no gaps),
   and the onsets carry no extractor uncertainty (``sigma_s`` = 0): the noise model is the
@@ -46,7 +45,7 @@ from drumroll.config import Config
 from drumroll.distributions import Distribution
 from drumroll.errors import DrumrollError
 from drumroll.inference.settings import estimate_settings
-from drumroll.inference.space import SCATTER, ParameterSpace
+from drumroll.inference.space import CONTACT, SCATTER, ParameterSpace
 
 #: Where the first impact T0 is put (s from the start of the recording). The likelihood is
 #: invariant under a shift of every onset, and T0's prior is flat around the first onset, so
@@ -137,15 +136,16 @@ class RollSimulator:
                 rejected[PHYSICS] += 1
                 continue
             values = {name: float(np.ravel(value)[0]) for name, value in space.values(x).items()}
-            epsilon = np.zeros(self.n_flights)
+            ratios = None
             if self.scatters:
                 epsilon = values[SCATTER] * rng.standard_normal(self.n_flights)
                 scattered = self._scattered_impacts(values, epsilon)
                 if scattered is None:
                     rejected[RESTITUTION_ABOVE_ONE] += 1
                     continue
-                impacts = scattered[None, :]
-            tau = impacts[0]
+                tau, ratios = scattered
+            else:
+                tau = impacts[0]
             jitter = values["jitter"]
             if self.noise == "student-t":
                 noise = jitter * rng.standard_t(values["nu"], tau.size)
@@ -157,40 +157,54 @@ class RollSimulator:
                 rejected[OUT_OF_ORDER] += 1
                 continue
             return SimulatedRoll(values=values, t0=t0, model_times=t0 + tau, times=times,
-                                 speeds=self._speeds(x, epsilon), attempts=attempt,
+                                 speeds=self._speeds(x, ratios), attempts=attempt,
                                  rejected=dict(rejected))
         commonest = rejected.most_common(1)[0][0] if rejected else "none"
         raise DrumrollError(f"no roll in {MAX_ATTEMPTS} draws from the priors of the "
                             f"{space.model} model (the commonest reason: {commonest}); check "
                             "the priors' ranges")
 
-    def _scattered_impacts(self, values: dict[str, float], epsilon: NDArray) -> NDArray | None:
-        """τ_0 … τ_K with the restitution of bounce j scattered by ε_j (module docstring),
-        contact time included; None where a restitution would exceed 1 or the kernel finds
-        the point invalid."""
+    def _scattered_impacts(self, values: dict[str, float], epsilon: NDArray
+                           ) -> tuple[NDArray, NDArray] | None:
+        """τ_0 … τ_K with the restitution of impact j scattered by e^{ε_j} (module docstring),
+        contact time included, and the speed ratios r_1 … r_K; None where a restitution would
+        exceed 1 or the motion's kernel finds the point invalid.
+
+        Impact by impact: the restitution law's α for the speed the impact comes in with
+        (r_{k−1} times the first contact speed), times e^{ε_k}, gives r_k; the motion's kernel
+        turns the ratios into flights (:meth:`~drumroll.physics.model.ForwardModel.
+        flights_at`). With the constant law this is α^k e^{ε_1 + … + ε_k}."""
         space, n = self.space, self.n_flights
-        k = np.arange(1, n + 1)
-        alpha_eff = values["alpha"] * np.exp(np.cumsum(epsilon) / k)
-        if np.any(alpha_eff > 1.0):
-            return None
-        # One row per bounce k, each a drop with the constant α_eff,k; flight k of row k.
-        kernel = {**values, "alpha": alpha_eff}
+        law = space.forward.law
+        alpha = np.array([values["alpha"]])
+        ratios = np.empty((1, n))
+        ratio = np.ones(1)
+        for k in range(n):
+            restitution = law.restitution(alpha, values, ratio) * math.exp(epsilon[k])
+            if not (0.0 < float(restitution[0]) <= 1.0):
+                return None
+            ratio = ratio * restitution
+            ratios[0, k] = ratio[0]
         shape = space.config.stick.shape if space.forward.needs_stick else None
-        flights, valid = space.forward.flights(kernel, n, shape, self.gravity)
+        kernel = {**values, "alpha": alpha}
+        flights, valid = space.forward.flights_at(ratios, kernel, shape, self.gravity)
         if not np.all(valid):
             return None
-        impacts = np.concatenate(([0.0], np.cumsum(np.diagonal(flights))))
-        return ParameterSpace.with_contact(impacts[None, :], values.get("contact"))[0]
+        impacts = np.concatenate(([0.0], np.cumsum(flights[0])))[None, :]
+        if CONTACT in values:
+            impacts = space.with_contact(impacts, values[CONTACT], ratios)
+        return impacts[0], ratios[0]
 
-    def _speeds(self, x: NDArray, epsilon: NDArray) -> NDArray:
-        """Tip speed at each impact (m/s): the forward model's, scaled by the scattered
-        restitutions (the rebound after impact j leaves e^{ε_j} times faster, and energy is
-        kept in flight). A model without a tip (the power law) gets a ball's speed, g T / 2 for
-        a flight T: the speed only sets how loud a recorded impact is."""
+    def _speeds(self, x: NDArray, ratios: NDArray | None) -> NDArray:
+        """Tip speed at each impact (m/s): the first contact speed times the speed ratios, the
+        forward model's or, with a scattering restitution, the scattered ones (energy is kept
+        in flight, so an impact comes in as fast as the rebound before it left). A model
+        without a tip (the power law) gets a ball's first speed, g t_B / 2: the speed only
+        sets how loud a recorded impact is."""
         bounces = self.space.bounces(x, self.n_flights)
-        speeds = np.ravel(bounces.impact_tip_speeds)
-        if not np.all(np.isfinite(speeds)):
+        first = float(np.ravel(bounces.tip_speed_c)[0])
+        if not math.isfinite(first):
             first = 0.5 * self.gravity * float(np.ravel(bounces.t_b)[0])
-            speeds = first * float(np.ravel(bounces.alpha)[0]) ** np.arange(self.n_flights + 1)
-        scale = np.exp(np.concatenate(([0.0], np.cumsum(epsilon))))
-        return np.maximum(speeds * scale, math.ulp(1.0))
+        if ratios is None:
+            ratios = np.ravel(bounces.speed_ratios)
+        return np.maximum(first * np.concatenate(([1.0], ratios)), math.ulp(1.0))

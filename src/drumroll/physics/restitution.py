@@ -81,6 +81,13 @@ class RestitutionLaw(ABC):
         """
 
     @abstractmethod
+    def restitution(self, alpha: NDArray, values: Values, ratio: NDArray) -> NDArray:
+        """α of an impact that comes in at ``ratio`` times the first contact speed, shape
+        ``(batch,)``: the step r_k = r_{k−1} α(v₁ r_{k−1}) of :meth:`speed_ratios`, for a
+        caller that carries the speeds itself (a restitution that also scatters from bounce to
+        bounce, simulated impact by impact: :mod:`drumroll.calibration.roll`)."""
+
+    @abstractmethod
     def propagation(self, alpha: NDArray, values: Values, ratios: NDArray) -> NDArray | None:
         """∂ ln r_k / ∂ ln r_{k−1} for k = 1 … N, shape ``(batch, N)``: how a change of the
         rebound speed before impact k carries into the rebound after it. ``None`` where it is
@@ -97,6 +104,9 @@ class Constant(RestitutionLaw):
                      ) -> tuple[NDArray, NDArray]:
         ratios = alpha[:, None] ** np.arange(1.0, n_flights + 1.0)
         return ratios, np.ones(alpha.shape, dtype=bool)
+
+    def restitution(self, alpha: NDArray, values: Values, ratio: NDArray) -> NDArray:
+        return np.broadcast_to(alpha, np.shape(ratio)).astype(float)
 
     def propagation(self, alpha: NDArray, values: Values, ratios: NDArray) -> None:
         return None
@@ -126,6 +136,11 @@ class SpeedDependent(RestitutionLaw):
                 ratio = ratio * np.where(valid, restitution, 0.5)
                 ratios[:, k] = ratio
         return ratios, valid
+
+    def restitution(self, alpha: NDArray, values: Values, ratio: NDArray) -> NDArray:
+        exponent = _column(values[EXPONENT], alpha.shape)
+        with np.errstate(all="ignore"):
+            return 1.0 - (1.0 - alpha) * np.asarray(ratio, float) ** exponent
 
     def propagation(self, alpha: NDArray, values: Values, ratios: NDArray) -> NDArray:
         exponent = _column(values[EXPONENT], alpha.shape)[:, None]

@@ -15,6 +15,7 @@ from drumroll.config import parse_config
 from drumroll.errors import ConfigError
 from drumroll.physics import REASONS, bounce_sequence
 from drumroll.physics.models import MODELS, forward_model
+from drumroll.physics.restitution import LAWS
 from tests.unit.physics.test_pendulum import STICK, contact_speed, ode_travel, stick_constants
 
 
@@ -101,3 +102,18 @@ def test_model_names_and_default_prior():
     assert prior.median() == pytest.approx(0.0)
     with pytest.raises(ConfigError, match="model"):
         parse_config({"model": "powerlaw/drag", "priors": {"alpha": 0.9, "t_b": 0.2}})
+
+
+@pytest.mark.parametrize("law", list(LAWS))
+def test_each_step_of_the_ratios_is_the_law_s_restitution(law):
+    """restitution(r_{k-1}) is the step r_k / r_{k-1} of speed_ratios (what a caller that
+    carries the speeds itself, the calibration's scattered roll, takes one impact at a
+    time)."""
+    alpha = np.array([0.6, 0.85, 0.97])
+    values = {"restitution_exponent": np.array([0.1, 0.2, 0.3])}
+    ratios, valid = LAWS[law].speed_ratios(alpha, values, 12)
+    assert valid.all()
+    before = np.concatenate([np.ones((3, 1)), ratios[:, :-1]], axis=1)
+    for k in range(12):
+        step = LAWS[law].restitution(alpha, values, before[:, k])
+        np.testing.assert_allclose(ratios[:, k], before[:, k] * step, rtol=1e-14)
