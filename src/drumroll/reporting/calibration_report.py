@@ -187,7 +187,8 @@ def _method_lines(result: Any) -> list[str]:
         f"({sampler.get('walkers')} walkers until bulk and tail ESS ≥ "
         f"{sampler.get('target_ess', 0):.0f} and R-hat < {sampler.get('max_r_hat')}, at most "
         f"{sampler.get('max_steps')} steps). The compared models and the evidence are not "
-        "computed: they serve the model comparison and leave the main posterior unchanged.",
+        "computed (nor, with `missed_first`, the renumbered fits' evidences): they serve the model "
+        "comparison and leave the main posterior unchanged.",
         f"- Ranks: the truth among {settings.rank_draws} posterior draws chosen at random among "
         "draws one autocorrelation time apart (nearly independent), histogram bins dividing the "
         "rank values evenly; coverage: central intervals of all the stored draws (at most "
