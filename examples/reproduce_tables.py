@@ -31,7 +31,7 @@ from pathlib import Path
 
 import drumroll
 from drumroll.fileio import write_text, write_together
-from drumroll.reporting.calibration_report import headline, write_calibration
+from drumroll.reporting.calibration_report import headline_text, write_calibration
 from drumroll.reporting.document import Figure, Paragraph
 from drumroll.reporting.figure5 import plot_figure5
 from drumroll.reporting.markdown import render_markdown
@@ -116,7 +116,7 @@ def calibrate(workers: int | None) -> None:
             result = drumroll.calibrate(Path("data/table2_h80.toml"), n=200, audio=audio,
                                         workers=workers, progress=print)
             write_calibration(result, OUTPUT / folder, overwrite=True)
-            print("\n".join(line for line in headline(result) if line))
+            print(headline_text(result))
     finally:
         os.chdir(here)
 

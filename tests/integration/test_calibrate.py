@@ -23,6 +23,7 @@ from drumroll.cli.main import main
 from drumroll.errors import DrumrollError
 from drumroll.reporting.calibration_report import CALIBRATION_FILES, write_calibration
 from paths import DATA
+from tests.integration.test_reports_html import Page, check_images, check_numbers
 
 #: A ball's config whose fits take a fraction of a second (few walkers and steps): for the
 #: machinery, not for calibration.
@@ -95,6 +96,10 @@ def test_the_result_holds_every_number_and_reads_back(quick_result, tmp_path):
     report = paths["report"].read_text()
     assert report.startswith("# Calibration of the powerlaw model")
     assert "| α (`alpha`) |" in report and "![Rank histograms](ranks.png)" in report
+    # The HTML page: the figures embedded, every number of its tables calibration.json's.
+    page = Page(paths["report_html"].read_text(encoding="utf-8"))
+    assert page.scripts == 0 and len(check_images(page)) == 2
+    check_numbers(page, data, minimum=20)  # 4 quantities; no χ² with 4 simulations
     with pytest.raises(DrumrollError, match="would overwrite"):
         write_calibration(result, tmp_path / "out")
 

@@ -56,10 +56,9 @@ from drumroll.inference.calibration import (
     rank_statistic,
 )
 from drumroll.inference.likelihood import T0_WINDOW_S, OnsetData
+from drumroll.progress import ProgressLike, as_progress
 from drumroll.quantities import BY_NAME, report_order
 from drumroll.workers import process_pool
-
-Progress = Callable[[str], None]
 
 #: Most simulations and onsets per roll a run may ask for.
 MAX_SIMULATIONS = 10_000
@@ -331,7 +330,7 @@ def check_calibration(config: Config, n: int, n_onsets: int, audio: bool) -> Non
 def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
               n_onsets: int = DEFAULT_ONSETS, seed: int = 0, audio: bool = False,
               rank_draws: int = RANK_DRAWS, workers: int | None = None,
-              executor: Executor | None = None, progress: Progress | None = None
+              executor: Executor | None = None, progress: ProgressLike = None
               ) -> CalibrationResult:
     """Simulation-based calibration of ``estimate`` on a config's main model (Talts et al.
     2018; see the module docstring).
@@ -359,7 +358,10 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
         Any :class:`concurrent.futures.Executor` (a Dask client's ``get_executor()``); the
         caller owns it.
     progress
-        Called with a line of news now and then.
+        Where the calibration reports (:func:`drumroll.progress.as_progress`): None shows a
+        bar of the simulations where a person watches (a terminal, a notebook), a callable
+        gets a line of news now and then, False nothing; or a
+        :class:`~drumroll.progress.Progress`.
 
     Returns
     -------
@@ -373,7 +375,8 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
         A bad count, config or sound (before any simulation), or a simulation that failed
         (one line naming it).
     """
-    say = progress or (lambda message: None)
+    reporter = as_progress(progress)
+    say = reporter.say
     started = time.perf_counter()
     if not isinstance(config, Config):
         config = load_config(config)
@@ -396,6 +399,7 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
 
     def finish(record: DrawRecord) -> None:
         records[record.index] = record
+        bar.advance(note=f"simulation {record.index}")
         if len(records) % report_every == 0 or len(records) == n:
             say(f"{len(records)}/{n} simulations fitted ({time.perf_counter() - started:.0f} s)")
 
@@ -404,18 +408,19 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
     say(f"{n} simulated {what} of {n_onsets} onsets, fitted with the {config.model} model "
         + (f"on {type(executor).__name__}" if executor is not None else
            f"in {count} process{'es' if count > 1 else ''}"))
-    if executor is None and count == 1:
-        for i in range(n):
-            try:
-                record = run_draw(config.raw, path, i, options)
-            except DrumrollError as exc:
-                raise _named(i, exc) from None
-            finish(record)
-    elif executor is not None:
-        _run_all(executor, config.raw, path, n, options, finish)
-    else:
-        with process_pool(count) as pool:
-            _run_all(pool, config.raw, path, n, options, finish)
+    with reporter.bar(n, "calibrate", "simulation") as bar:
+        if executor is None and count == 1:
+            for i in range(n):
+                try:
+                    record = run_draw(config.raw, path, i, options)
+                except DrumrollError as exc:
+                    raise _named(i, exc) from None
+                finish(record)
+        elif executor is not None:
+            _run_all(executor, config.raw, path, n, options, finish)
+        else:
+            with process_pool(count) as pool:
+                _run_all(pool, config.raw, path, n, options, finish)
     draws = tuple(records[i] for i in range(n))
     variance = prior_variances(config, n_onsets, seed)
     # The fit samples the simulator's parameters and T0 (sampled, or drawn from its

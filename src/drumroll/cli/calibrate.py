@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from drumroll.reporting.calibration_report import (
         CALIBRATION_FILES,
         check_calibration_outputs,
-        headline,
+        headline_text,
         write_calibration,
     )
 
@@ -60,29 +60,23 @@ def run(args: argparse.Namespace) -> int:
     check_calibration_outputs(out_dir, overwrite=args.force)
     n_onsets = DEFAULT_ONSETS if args.onsets is None else args.onsets
     check_calibration(config, args.n, n_onsets, args.audio)
-    # News for a person at a terminal: nothing on a pipe or a log file, nor with --quiet.
-    progress = Progress(quiet=args.quiet or not _is_terminal(sys.stderr))
+    # A bar of the simulations on a terminal, lines of news on a pipe, nothing with --quiet.
+    progress = Progress(quiet=args.quiet)
     options = {"n": args.n, "n_onsets": n_onsets, "seed": args.seed, "audio": args.audio,
-               "workers": args.workers, "progress": progress.say}
+               "workers": args.workers, "progress": progress}
     with contextlib.ExitStack() as stack:
         if args.dask:
             from drumroll.cli.table import dask_executor
 
             options["executor"] = stack.enter_context(dask_executor(args.dask))
-        with progress.stage(f"calibrating {config.model} on {args.n} simulated rolls"):
-            result = calibrate(config, **options)
+        result = calibrate(config, **options)
     with progress.stage(f"writing {out_dir}"):
         write_calibration(result, out_dir, overwrite=args.force)
-    # The report's headline, its Markdown taken off for the terminal.
-    print("\n".join(line for line in headline(result) if line).replace("**", "")
-          .replace("`", ""))
+    print(headline_text(result))
     print(f"\nresults in {out_dir}/ ({', '.join(CALIBRATION_FILES.values())})")
     # A parameter that fails is a finding, said in the headline, not an error of the run.
     return 0
 
-
-def _is_terminal(stream) -> bool:
-    return hasattr(stream, "isatty") and stream.isatty()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -14,8 +14,6 @@ band a calibrated coverage falls in with 99 % probability.
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,8 +23,6 @@ from drumroll.reporting.plot_style import (
     new_figure,
     parameter_label,
     parameter_symbol,
-    save_figure,
-    style,
 )
 
 #: Colours of the two calibrations.
@@ -134,18 +130,3 @@ def draw_coverage(result: Any):
     fig.suptitle(f"Coverage, {result.settings.model} model, {result.settings.n} simulations "
                  "(error bars: 68 % Clopper–Pearson)", fontsize=10)
     return fig
-
-
-def plot_ranks(result: Any, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
-    """Write ``ranks.png`` (:func:`draw_ranks`) atomically."""
-    with style():
-        fig = draw_ranks(result)
-    return save_figure(fig, path, overwrite=overwrite)
-
-
-def plot_coverage(result: Any, path: str | os.PathLike[str], *, overwrite: bool = False
-                  ) -> Path:
-    """Write ``coverage.png`` (:func:`draw_coverage`) atomically."""
-    with style():
-        fig = draw_coverage(result)
-    return save_figure(fig, path, overwrite=overwrite)

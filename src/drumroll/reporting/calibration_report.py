@@ -1,12 +1,15 @@
-"""``drumroll calibrate``'s outputs: ``report.md`` (from one function returning its sections,
-which another renderer can take as they are), ``calibration.json``, and the figures, written
+"""``drumroll calibrate``'s outputs: the report as one document
+(:func:`calibration_document`, rendered as ``report.md`` and ``report.html`` by
+:mod:`drumroll.reporting.document`'s renderers), ``calibration.json`` and the figures, written
 together into one folder.
 
 The report: the headline (which parameters pass, which fail: a parameter passes when its
 90 % coverage lies inside the binomial 99 % band and its rank histogram passes Pearson's χ²
 test at 1 %, the acceptance of issue 14), the table (coverage with error bars, χ² p-value, mean
-z-score, contraction), the same for the derived quantities, what the extractor changes (with
-``--audio``), how the run was made, and the figures (Talts et al. 2018, arXiv:1804.06788).
+and sd of the z-score, contraction), the same for the derived quantities, what the extractor
+changes (with ``--audio``), how to read it, how the run was made, and the figures (Talts et
+al. 2018, arXiv:1804.06788). Every number of a table keeps its place in
+``calibration.json`` (its JSON pointer), as the estimate's report does.
 """
 
 from __future__ import annotations
@@ -15,34 +18,56 @@ import contextlib
 import json
 import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drumroll import fileio
 from drumroll.errors import DrumrollError
-from drumroll.inference.calibration import MIN_EXPECTED
+from drumroll.inference.calibration import CHI_SQUARE_LEVEL, MIN_EXPECTED, coverage
 from drumroll.quantities import QUANTITIES
+from drumroll.reporting.document import (
+    Block,
+    BulletList,
+    Code,
+    Content,
+    Document,
+    Figure,
+    Heading,
+    Paragraph,
+    Strong,
+    Table,
+    TableNote,
+    content,
+    number,
+    plain_text,
+    pointer,
+)
 from drumroll.reporting.plot_style import missing_glyphs_said_once
 
-#: The outputs, in the order they are written (the report last: it links the figures).
+#: The outputs by key, in the order they are written.
 CALIBRATION_FILES = {"json": "calibration.json", "ranks": "ranks.png",
-                     "coverage": "coverage.png", "report": "report.md"}
+                     "coverage": "coverage.png", "report": "report.md",
+                     "report_html": "report.html"}
+
+#: The figures: key → caption and what to look for.
+FIGURES = {
+    "ranks": ("Rank histograms",
+              "The truth's rank among the posterior draws, per quantity, with the band each "
+              "bin stays in with 99 % probability when the posterior is right (grey) and its "
+              "expected count (line). A ∪ says the posterior is too narrow, a ∩ too wide, a "
+              "slope that it is biased. With --audio the extractor's ranks are the outline."),
+    "coverage": ("Coverage",
+                 "The share of simulations whose central 50 % and 90 % intervals held the "
+                 "truth, with 68 % Clopper–Pearson error bars, against the nominal rate "
+                 "(dashed) and the band a calibrated coverage falls in with 99 % probability "
+                 "(grey)."),
+}
 
 
-@dataclass(frozen=True)
-class Section:
-    """One section of the report: a title (None: the headline, before any title) and its
-    Markdown lines."""
-
-    title: str | None
-    lines: tuple[str, ...]
-
-
-def _label(key: str) -> str:
-    """``α``, ``d`` (the plain symbol) and the key, for a table's first column."""
+def _label(key: str) -> Content:
+    """``α (alpha)``: the plain symbol and the key, for a table's first column."""
     q = QUANTITIES.get(key)
-    return f"{q.plain} (`{key}`)" if q is not None else f"`{key}`"
+    return (f"{q.plain} (", Code(key), ")") if q is not None else (Code(key),)
 
 
 def _unit(key: str) -> str:
@@ -50,194 +75,230 @@ def _unit(key: str) -> str:
     return q.unit if q is not None and q.unit else "—"
 
 
-def _number(value: Any, text: str) -> str:
+def _value(value: Any, text: str, source: str | None) -> Content:
+    """A number as text with its pointer; — when it is not finite."""
     try:
         value = float(value)
     except (TypeError, ValueError):
-        return "—"
-    return format(value, text).replace("-", "−") if math.isfinite(value) else "—"
+        return ("—",)
+    if not math.isfinite(value):
+        return ("—",)
+    return (number(value, format(value, text).replace("-", "−"), source),)
 
 
-def _coverage(c: Any) -> str:
-    """``0.91 ± 0.02`` (the error: half the 68 % Clopper–Pearson interval), bold with ⚠
+def _coverage(c: Any, source: str) -> Content:
+    """``0.91 ± 0.02`` (the error: half the 68 % Clopper–Pearson interval), strong with ⚠
     outside the 99 % band."""
-    text = f"{c.rate:.2f} ± {c.error:.2f}"
-    return text if c.inside else f"**{text}** ⚠"
+    shown = number(c.rate, f"{c.rate:.2f} ± {c.error:.2f}", f"{source}/rate", error=c.error)
+    return (shown,) if c.inside else (Strong((shown,)), " ⚠")
 
 
-def _p_value(p: Any) -> str:
-    text = _number(p, ".2g")
+def _p_value(p: Any, source: str) -> Content:
+    shown = _value(p, ".2g", source)
     try:
-        low = float(p) < 0.01
+        low = float(p) < CHI_SQUARE_LEVEL
     except (TypeError, ValueError):
         low = False
-    return f"**{text}** ⚠" if low else text
+    return (Strong(shown), " ⚠") if low else shown
 
 
-def quantity_table(level: Any, keys: tuple[str, ...]) -> list[str]:
-    """Markdown lines of the table of ``keys`` in one calibration ``level``."""
-    lines = ["| quantity | unit | 50 % coverage | 90 % coverage | χ² p | mean z | sd z | "
-             "contraction | |", "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+def quantity_table(result: Any, level: str, keys: tuple[str, ...]) -> Table:
+    """The table of ``keys`` in the calibration ``level`` (``"onsets"`` or ``"audio"``)."""
+    calibration = result.level(level)
+    rows = []
     for key in keys:
-        q = level.quantities[key]
-        lines.append(
-            f"| {_label(key)} | {_unit(key)} | {_coverage(q.coverage_50)} | "
-            f"{_coverage(q.coverage_90)} | {_p_value(q.chi_square.p_value)} | "
-            f"{_number(q.mean_z, '+.2f')} | {_number(q.sd_z, '.2f')} | "
-            f"{_number(q.contraction, '.3f')} | {'pass' if q.passed else '**fail**'} |")
-    return lines
+        q = calibration.quantities[key]
+        here = pointer(level, "quantities", key)
+        rows.append((
+            _label(key), (_unit(key),), _coverage(q.coverage_50, f"{here}/coverage_50"),
+            _coverage(q.coverage_90, f"{here}/coverage_90"),
+            _p_value(q.chi_square.p_value, f"{here}/chi_square/p_value"),
+            _value(q.mean_z, "+.2f", f"{here}/mean_z"), _value(q.sd_z, ".2f", f"{here}/sd_z"),
+            _value(q.contraction, ".3f", f"{here}/contraction"),
+            ("pass",) if q.passed else (Strong(("fail",)),)))
+    header = (("quantity",), ("unit",), ("50 % coverage",), ("90 % coverage",), ("χ² p",),
+              ("mean z",), ("sd z",), ("contraction",), ("",))
+    return Table(header, tuple(rows), (None, None, *("right",) * 6, None))
 
 
-def _failure(q: Any) -> str:
+def _failure(q: Any) -> Content:
     """Why a quantity failed, in numbers."""
     c = q.coverage_90
     why = []
     if not c.inside:
         why.append(f"90 % coverage {c.rate:.2f}, outside {c.band_low:.2f} … {c.band_high:.2f}")
-    if q.chi_square.p_value < 0.01:
+    if q.chi_square.p_value < CHI_SQUARE_LEVEL:
         why.append(f"ranks not uniform, χ² p = {q.chi_square.p_value:.2g}")
-    return f"{_label(q.key)} ({'; '.join(why)})"
+    return content(_label(q.key), f" ({'; '.join(why)})")
 
 
-def headline(result: Any) -> list[str]:
-    """The verdict before any number: which parameters pass and which fail, per level."""
+def _listed(keys: list[str] | tuple[str, ...]) -> Content:
+    return content(*[(", " if i else "", _label(k)) for i, k in enumerate(keys)])
+
+
+def headline(result: Any) -> tuple[Content, ...]:
+    """The verdict before any number, one paragraph each: what was calibrated, then per
+    level which parameters pass and which fail."""
     settings = result.settings
-    what = (f"{settings.n} rolls of {settings.n_onsets} onsets drawn from the priors of the "
-            f"{settings.model} model and fitted as `estimate` fits them")
-    lines = []
+    paragraphs: list[Content] = [(
+        f"Simulation-based calibration (Talts et al. 2018) of {settings.n} rolls of "
+        f"{settings.n_onsets} onsets drawn from the priors of the ", Code(settings.model),
+        " model and fitted as ", Code("estimate"), " fits them.")]
     for name, level in result.levels.items():
         source = ("the simulated onsets" if name == "onsets"
                   else "the onsets the extractor found in each roll's recording")
         failed = level.failed()
         if not failed:
-            listed = ", ".join(map(_label, level.parameters))
             tested = all(level.quantities[k].chi_square.dof for k in level.parameters)
-            verdict = (f"**Every parameter is calibrated** ({listed}): its 90 % coverage lies "
-                       "inside the binomial 99 % band"
-                       + (" and its ranks pass the χ² test at 1 %" if tested else ""))
+            verdict = content(Strong(("Every parameter is calibrated",)), " (",
+                              _listed(level.parameters), "): its 90 % coverage lies inside "
+                              "the binomial 99 % band",
+                              " and its ranks pass the χ² test at 1 %" if tested else "")
         else:
-            verdict = ("**Not calibrated:** "
-                       + "; ".join(_failure(level.quantities[k]) for k in failed)
-                       + (f". The other parameters pass "
-                          f"({', '.join(_label(k) for k in level.parameters if k not in failed)})"
-                          if len(failed) < len(level.parameters) else ""))
+            passed = [k for k in level.parameters if k not in failed]
+            verdict = content(
+                Strong(("Not calibrated:",)), " ",
+                *[("; " if i else "", _failure(level.quantities[k]))
+                  for i, k in enumerate(failed)],
+                (". The other parameters pass (", _listed(passed), ")") if passed else "")
         derived_failed = level.failed(level.derived)
-        derived = ""
+        derived: Content = ()
         if level.derived:
-            derived = " Derived quantities: " + (
-                "all pass." if not derived_failed
-                else f"fail: {', '.join(map(_label, derived_failed))}.")
-        lines += [f"Fitting {source}: {verdict}.{derived}", ""]
+            derived = (" Derived quantities: ", "all pass." if not derived_failed
+                       else content("fail: ", _listed(derived_failed), "."))
+        paragraphs.append(content(f"Fitting {source}: ", verdict, ".", derived))
     if any(q.chi_square.dof == 0 for q in result.onsets.quantities.values()):
-        lines += [f"{settings.n} simulations are too few for the χ² test of the ranks (it "
-                  f"needs {2 * MIN_EXPECTED} or more): the coverage alone decides.", ""]
-    lines.insert(0, f"Simulation-based calibration (Talts et al. 2018) of {what}.")
-    lines.insert(1, "")
-    return lines
+        paragraphs.append((f"{settings.n} simulations are too few for the χ² test of the "
+                           f"ranks (it needs {2 * MIN_EXPECTED} or more): the coverage alone "
+                           "decides.",))
+    return tuple(paragraphs)
 
 
-def _audio_section(result: Any) -> list[str]:
-    """What hearing the rolls changes: the extractor's record, and the coverage side by side."""
+def headline_text(result: Any) -> str:
+    """:func:`headline` as plain text, a line per paragraph (the terminal's)."""
+    return "\n".join(plain_text(paragraph) for paragraph in headline(result))
+
+
+def _audio_blocks(result: Any) -> tuple[Block, ...]:
+    """What hearing the rolls changes: the extractor's record, the coverage side by side, and
+    the coverage over the rolls it numbered right and over the others."""
     draws = [d for d in result.draws if d.hearing is not None]
     if result.audio is None or not draws:
-        return []
+        return ()
     n = len(draws)
     heard = [d.hearing for d in draws]
-    first_heard = sum(h.first == 0 for h in heard)
-    stray_first = sum(h.first < 0 for h in heard)
-    missed_first = sum(h.first > 0 for h in heard)
-    misnumbered = sum(h.misnumbered > 0 for h in heard)
+    right = [h.first == 0 and h.misnumbered == 0 for h in heard]
     fraction = sorted(h.n_heard / h.n_impacts for h in heard)
-    median_error = sorted(h.median_error_ms for h in heard if h.median_error_ms is not None)
-    middle = fraction[len(fraction) // 2]
-    lines = [
-        f"Each simulated roll was also rendered as a recording (the renderer of `drumroll "
-        f"simulate`, with the config's `[simulate]` sound) and its onsets found by the "
-        f"extractor, then fitted in the same way, with the same truths. Of the {n} "
-        f"recordings the extractor numbered the roll from its first impact in {first_heard}, "
-        f"took a stray sound (the tap before the roll) for its first bounce in {stray_first}, "
-        f"and missed the first impact in {missed_first}; {misnumbered} had at least one "
-        f"onset whose number is not its impact's. It kept a median {middle:.0%} of the "
-        f"impacts, each onset a median "
-        f"{median_error[len(median_error) // 2] if median_error else math.nan:.2f} ms from its "
-        "impact.", "",
-        "| quantity | 90 % coverage, onsets | 90 % coverage, heard | mean z, onsets | "
-        "mean z, heard | sd z, onsets | sd z, heard |", "|---|---:|---:|---:|---:|---:|---:|"]
-    for key in (*result.audio.parameters, *result.audio.derived):
+    errors = sorted(h.median_error_ms for h in heard if h.median_error_ms is not None)
+    record = Paragraph((
+        "Each simulated roll was also rendered as a recording (the renderer of ",
+        Code("drumroll simulate"), ", with the config's ", Code("[simulate]"), " sound: its "
+        "room, noise, hum and stray sounds), its onsets found by the extractor and fitted in "
+        f"the same way, against the same truths. Of the {n} recordings the extractor numbered "
+        f"the roll from its first impact in {sum(h.first == 0 for h in heard)}, took a sound "
+        f"before the roll for its first bounce in {sum(h.first < 0 for h in heard)} (the tap "
+        "the [simulate] section puts 0.2 to 1 s before the roll, where it lands near an "
+        "earlier bounce's place), and missed the first impact in "
+        f"{sum(h.first > 0 for h in heard)}; {sum(not r for r in right)} rolls hold at least "
+        "one onset whose number is not its impact's. It kept a median "
+        f"{fraction[len(fraction) // 2]:.0%} of the impacts, each onset a median "
+        f"{errors[len(errors) // 2] if errors else math.nan:.2f} ms from its impact.",))
+    keys = (*result.audio.parameters, *result.audio.derived)
+    rows = []
+    for key in keys:
         a, b = result.onsets.quantities[key], result.audio.quantities[key]
-        lines.append(f"| {_label(key)} | {_coverage(a.coverage_90)} | "
-                     f"{_coverage(b.coverage_90)} | {_number(a.mean_z, '+.2f')} | "
-                     f"{_number(b.mean_z, '+.2f')} | {_number(a.sd_z, '.2f')} | "
-                     f"{_number(b.sd_z, '.2f')} |")
-    return [*lines, ""]
+        split = [coverage([d.audio.covered_90[key] for d, ok in zip(draws, right, strict=True)
+                           if ok is want], 0.9) for want in (True, False)]
+        rows.append((
+            _label(key), _coverage(a.coverage_90, pointer("onsets", "quantities", key,
+                                                          "coverage_90")),
+            _coverage(b.coverage_90, pointer("audio", "quantities", key, "coverage_90")),
+            *(((number(c.rate, f"{c.rate:.2f}"), f" ({c.n})") if c.n else ("—",))
+              for c in split),
+            _value(a.sd_z, ".2f", pointer("onsets", "quantities", key, "sd_z")),
+            _value(b.sd_z, ".2f", pointer("audio", "quantities", key, "sd_z"))))
+    header = (("quantity",), ("90 % coverage, onsets",), ("90 % coverage, heard",),
+              ("heard, numbered right",), ("heard, misnumbered",), ("sd z, onsets",),
+              ("sd z, heard",))
+    note = TableNote(("The same rolls fitted twice: from their simulated onsets, and from "
+                      "what the extractor found in their recordings (heard); then the heard "
+                      "fits split by whether every onset kept its impact's number (the "
+                      "rolls in brackets). ⚠: outside the 99 % band of a calibrated "
+                      "coverage.",))
+    return (Heading(2, ("From recordings: what the extractor changes",)), record,
+            Table(header, tuple(rows), (None, *("right",) * 6), notes=(note,)))
 
 
-def _method_lines(result: Any) -> list[str]:
+def _method(result: Any) -> BulletList:
     settings = result.settings
     sampler = settings.sampler
     rejected = result.rejected
     n_rejected = sum(rejected.values())
-    lines = [
-        f"- Config: `{result.config_path or '(given in Python)'}`, model `{settings.model}`, "
-        f"`{settings.noise}` onset noise. Each simulation draws θ from the priors (a draw the "
-        "physics forbids is drawn again: the prior the fit uses is truncated to those points), "
-        f"simulates {settings.n_onsets} onsets through the model's forward model with its "
-        "timing noise (and restitution scatter and contact time where the config has them), "
-        "every bounce heard, and fits them with `estimate`'s sampler settings "
-        f"({sampler.get('walkers')} walkers until bulk and tail ESS ≥ "
-        f"{sampler.get('target_ess', 0):.0f} and R-hat < {sampler.get('max_r_hat')}, at most "
-        f"{sampler.get('max_steps')} steps). The compared models and the evidence are not "
-        "computed (nor, with `missed_first`, the renumbered fits' evidences): they serve the model "
-        "comparison and leave the main posterior unchanged.",
-        f"- Ranks: the truth among {settings.rank_draws} posterior draws chosen at random among "
-        "draws one autocorrelation time apart (nearly independent), histogram bins dividing the "
-        "rank values evenly; coverage: central intervals of all the stored draws (at most "
-        "3,000); z = (posterior mean − truth) / posterior sd; contraction = 1 − posterior "
-        "variance / prior variance (T0's prior: its flat 1 s window).",
-        f"- Seed {settings.seed}; simulation i's seeds derive from the seed and i alone. "
-        f"{result.seconds:.0f} s of wall time, {result.cpu_seconds:.0f} s summed over the "
-        f"simulations; drumroll {result.versions.get('drumroll', '?')}.",
+    items: list[Content] = [
+        ("Config: ", Code(result.config_path or "(given in Python)"), ", model ",
+         Code(settings.model), ", ", Code(settings.noise), " onset noise. Each simulation "
+         "draws θ from the priors (a draw the physics forbids is drawn again: the prior the fit "
+         f"uses is truncated to those points), simulates {settings.n_onsets} onsets through "
+         "the model's forward model with its timing noise (and restitution scatter and contact "
+         "time where the config has them), every bounce heard, and fits them with ",
+         Code("estimate"), f"'s sampler settings ({sampler.get('walkers')} walkers until bulk "
+         f"and tail ESS ≥ {sampler.get('target_ess', 0):.0f} and R-hat < "
+         f"{sampler.get('max_r_hat')}, at most {sampler.get('max_steps')} steps). The compared "
+         "models and the evidence are not computed (nor, with ", Code("missed_first"), ", the "
+         "renumbered fits' evidences): they serve the model comparison and leave the main "
+         "posterior unchanged."),
+        (f"Ranks: the truth among {settings.rank_draws} posterior draws chosen at random among "
+         "draws one autocorrelation time apart (nearly independent), histogram bins dividing "
+         "the rank values evenly; coverage: central intervals of all the stored draws (at most "
+         "3,000); z = (posterior mean − truth) / posterior sd; contraction = 1 − posterior "
+         "variance / prior variance (T0's prior: its flat 1 s window).",),
+        (f"Seed {settings.seed}; simulation i's seeds derive from the seed and i alone. ",
+         number(result.seconds, f"{result.seconds:.0f}", "/seconds"), " s of wall time, ",
+         number(result.cpu_seconds, f"{result.cpu_seconds:.0f}", "/cpu_seconds"),
+         " s summed over the simulations; drumroll ", result.versions.get("drumroll", "?"),
+         "."),
     ]
     if n_rejected:
         reasons = "; ".join(f"{reason}: {count}" for reason, count in rejected.items())
-        lines.append(
-            f"- {n_rejected} of {result.attempts} parameter draws were made again ({reasons}). "
-            "A roll refused for its data alone (onsets out of time order, too few heard) "
-            "leaves the calibration valid, as the posterior given data that pass a check on "
-            "the data is the posterior given the data; the rolls calibrated are those that "
-            "pass.")
+        items.append((
+            f"{n_rejected} of {result.attempts} parameter draws were made again ({reasons}). "
+            "A roll refused for its data alone (onsets out of time order, too few heard, an "
+            "extractor too slow) leaves the calibration valid, as the posterior given data "
+            "that pass a check on the data is the posterior given the data; the rolls "
+            "calibrated are those that pass.",))
     for name, level in result.levels.items():
         if level.unconverged or level.inadequate:
-            lines.append(f"- Fits of the {name}: {level.unconverged} stopped at the step limit "
-                         f"before the ESS and R-hat targets; {level.inadequate} were flagged by "
-                         "the residual checks (the model is the truth here: the checks' false "
-                         "alarms).")
+            items.append((f"Fits of the {name}: {level.unconverged} stopped at the step limit "
+                          f"before the ESS and R-hat targets; {level.inadequate} were flagged "
+                          "by the residual checks (the model is the truth here: the checks' "
+                          "false alarms).",))
     k = len(result.onsets.parameters)
-    lines.append(f"- With {k} parameters each tested at 1 %, a calibrated inference fails at "
-                 f"least one test in about {1 - 0.99 ** (2 * k):.0%} of runs (less, as the "
-                 "tests are correlated): one failure near the band's edge is weak evidence; a "
-                 "failure by far, or a shape in the ranks, is not.")
-    return lines
+    items.append((f"With {k} parameters, each tested twice at 1 %, a calibrated inference "
+                  f"fails at least one test in about {1 - 0.99 ** (2 * k):.0%} of runs (less, "
+                  "as the tests are correlated): one failure near the band's edge is weak "
+                  "evidence; a failure by far, or a shape in the ranks, is not.",))
+    return BulletList(tuple(items))
 
 
-def calibration_sections(result: Any, figures: dict[str, str] | None = None
-                         ) -> list[Section]:
-    """The report of a :class:`~drumroll.calibration.CalibrationResult` as sections: the
-    headline, the parameters' table, the derived quantities', the extractor's (with audio),
-    how to read it, how it was made, and the figures (``figures``: key → file name relative
-    to the report)."""
+def calibration_document(result: Any, figures: dict[str, Figure] | None = None) -> Document:
+    """The report of a :class:`~drumroll.calibration.CalibrationResult`: the headline, the
+    parameters' table, the derived quantities', the extractor's (with audio), how to read it,
+    how it was made, and ``figures`` (key of :data:`FIGURES` → its
+    :class:`~drumroll.reporting.document.Figure`)."""
     onsets = result.onsets
-    sections = [Section(None, tuple(headline(result)))]
-    sections.append(Section("Parameters", tuple(quantity_table(onsets, onsets.parameters))))
+    title = f"Calibration of the {result.settings.model} model"
+    blocks: list[Block] = [Heading(1, (title,)),
+                           *(Paragraph(p) for p in headline(result)),
+                           Heading(2, ("Parameters",)),
+                           quantity_table(result, "onsets", onsets.parameters)]
     if onsets.derived:
-        sections.append(Section("Derived quantities", tuple(
-            ["Functions of the parameters, calibrated as the parameters are (any function of "
-             "θ has uniform ranks when the posterior is right).", "",
-             *quantity_table(onsets, onsets.derived)])))
-    if result.audio is not None:
-        sections.append(Section("From recordings: what the extractor changes",
-                                tuple(_audio_section(result))))
-    sections.append(Section("How to read it", (
+        blocks += [Heading(2, ("Derived quantities",)),
+                   Paragraph(("Functions of the parameters, calibrated as the parameters are "
+                              "(any function of θ has uniform ranks when the posterior is "
+                              "right).",)),
+                   quantity_table(result, "onsets", onsets.derived)]
+    blocks += _audio_blocks(result)
+    blocks += [Heading(2, ("How to read it",)), Paragraph((
         "Coverage is the share of simulations whose central interval held the truth, ± half "
         "its 68 % Clopper–Pearson interval; ⚠ marks a coverage outside the band a calibrated "
         "posterior's falls in with 99 % probability (binomial). χ² p tests that the ranks of "
@@ -245,34 +306,11 @@ def calibration_sections(result: Any, figures: dict[str, str] | None = None
         "Mean z near 0 and sd z near 1 say the posterior mean is unbiased and its sd honest; "
         "a ∪-shaped rank histogram says the posterior is too narrow, a ∩ too wide, a slope "
         "biased. Contraction near 1: the data, not the prior, set the parameter; near 0: the "
-        "prior does (its coverage then says little about the data).",)))
-    sections.append(Section("How it was made", tuple(_method_lines(result))))
+        "prior does (its coverage then says little about the data).",))]
+    blocks += [Heading(2, ("How it was made",)), _method(result)]
     if figures:
-        lines = []
-        for key, title in (("ranks", "Rank histograms"), ("coverage", "Coverage")):
-            if key in figures:
-                lines += [f"![{title}]({figures[key]})", ""]
-        sections.append(Section("Figures", tuple(lines)))
-    return sections
-
-
-def render_markdown(sections: list[Section], title: str) -> str:
-    """The sections as one Markdown document under ``title``."""
-    lines = [f"# {title}", ""]
-    for section in sections:
-        if section.title is not None:
-            lines += [f"## {section.title}", ""]
-        body = list(section.lines)
-        while body and not body[-1]:
-            body.pop()
-        lines += [*body, ""]
-    return "\n".join(lines).rstrip() + "\n"
-
-
-def report_markdown(result: Any, figures: dict[str, str] | None = None) -> str:
-    """``report.md`` of a calibration."""
-    title = f"Calibration of the {result.settings.model} model"
-    return render_markdown(calibration_sections(result, figures), title)
+        blocks += [Heading(2, ("Figures",)), *(figures[k] for k in FIGURES if k in figures)]
+    return Document(title, tuple(blocks))
 
 
 def check_calibration_outputs(out_dir: str | os.PathLike[str], *, overwrite: bool = False
@@ -293,18 +331,28 @@ def check_calibration_outputs(out_dir: str | os.PathLike[str], *, overwrite: boo
 
 def write_calibration(result: Any, out_dir: str | os.PathLike[str], *,
                       overwrite: bool = False) -> dict[str, Path]:
-    """Write ``calibration.json``, ``ranks.png``, ``coverage.png`` and ``report.md`` into
-    ``out_dir`` together: all of them or, if one fails (a full disk), none, and a folder this
-    made is removed again.
+    """Write ``calibration.json``, ``ranks.png``, ``coverage.png``, ``report.md`` and
+    ``report.html`` into ``out_dir`` together: all of them or, if one fails (a full disk),
+    none, and a folder this made is removed again.
 
     Returns
     -------
     dict
         Output key (:data:`CALIBRATION_FILES`) → path.
     """
-    from drumroll.reporting.calibration_plots import plot_coverage, plot_ranks
+    from drumroll.reporting.calibration_plots import draw_coverage, draw_ranks
+    from drumroll.reporting.plot_style import png_bytes, style
+    from drumroll.reporting.report_files import document_writers
 
     out_dir = check_calibration_outputs(out_dir, overwrite=overwrite)
+    paths = {key: out_dir / name for key, name in CALIBRATION_FILES.items()}
+    with missing_glyphs_said_once(CALIBRATION_FILES["ranks"]), style():
+        # Drawn once: the PNG files and the HTML page's embedded figures are these bytes.
+        pngs = {"ranks": png_bytes(draw_ranks(result)),
+                "coverage": png_bytes(draw_coverage(result))}
+    figures = {key: Figure(FIGURES[key][0], FIGURES[key][1], path=paths[key], png=pngs[key])
+               for key in FIGURES}
+    text = json.dumps(result.to_json(), indent=1, ensure_ascii=False) + "\n"
     created = not out_dir.exists()
     try:
         out_dir.mkdir(exist_ok=True)
@@ -312,18 +360,14 @@ def write_calibration(result: Any, out_dir: str | os.PathLike[str], *,
         if fileio.no_space(exc):
             raise fileio.no_space_error(out_dir, exc) from None
         raise
-    paths = {key: out_dir / name for key, name in CALIBRATION_FILES.items()}
-    text = json.dumps(result.to_json(), indent=1, ensure_ascii=False) + "\n"
-    report = report_markdown(result, {k: CALIBRATION_FILES[k] for k in ("ranks", "coverage")})
     written = False
     try:
-        with missing_glyphs_said_once(CALIBRATION_FILES["ranks"]):
-            fileio.write_together({
-                paths["json"]: lambda tmp: tmp.write_text(text, encoding="utf-8"),
-                paths["ranks"]: lambda tmp: plot_ranks(result, tmp, overwrite=True),
-                paths["coverage"]: lambda tmp: plot_coverage(result, tmp, overwrite=True),
-                paths["report"]: lambda tmp: tmp.write_text(report, encoding="utf-8"),
-            }, overwrite=overwrite)
+        fileio.write_together({
+            paths["json"]: lambda tmp: tmp.write_text(text, encoding="utf-8"),
+            paths["ranks"]: lambda tmp: tmp.write_bytes(pngs["ranks"]),
+            paths["coverage"]: lambda tmp: tmp.write_bytes(pngs["coverage"]),
+            **document_writers(paths["report"], calibration_document(result, figures)),
+        }, overwrite=overwrite)
         written = True
     finally:
         if created and not written:  # a folder this made, left empty: not left behind
