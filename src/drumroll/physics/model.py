@@ -138,10 +138,15 @@ class ForwardModel(ABC):
         flights, valid
             Shapes ``(batch, N)`` and ``(batch,)``; rows that are not valid hold garbage.
         """
+        return self._flights(values, n_flights, stick_shape, g)[2:]
+
+    def _flights(self, values: Values, n_flights: int, stick_shape: str | None, g: float
+                 ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """α, the law's speed ratios, the flights and where all are valid (:meth:`flights`)."""
         alpha = alpha_of(values)
         ratios, law_valid = self.law.speed_ratios(alpha, values, n_flights)
         flights, valid = self.flights_at(ratios, values, stick_shape, g)
-        return flights, valid & law_valid
+        return alpha, ratios, flights, valid & law_valid
 
     @abstractmethod
     def bounces_at(self, values: dict[str, NDArray], ratios: NDArray, n_flights: int,
@@ -196,10 +201,7 @@ class ForwardModel(ABC):
             ∂u_k/∂u_{k−1}, :meth:`RestitutionLaw.propagation`; None where it is 1) and
             ``(batch,)``.
         """
-        alpha = alpha_of(values)
-        ratios, law_valid = self.law.speed_ratios(alpha, values, n_flights)
-        flights, valid = self.flights_at(ratios, values, stick_shape, g)
-        valid = valid & law_valid
+        alpha, ratios, flights, valid = self._flights(values, n_flights, stick_shape, g)
         propagation = self.law.propagation(alpha, values, ratios)
         if self.geometric_flights:
             return flights, flights, propagation, valid

@@ -106,7 +106,8 @@ class Constant(RestitutionLaw):
         return ratios, np.ones(alpha.shape, dtype=bool)
 
     def restitution(self, alpha: NDArray, values: Values, ratio: NDArray) -> NDArray:
-        return np.broadcast_to(alpha, np.shape(ratio)).astype(float)
+        ratio = np.asarray(ratio, float)
+        return np.broadcast_to(_per_row(alpha, alpha.shape, ratio), ratio.shape).astype(float)
 
     def propagation(self, alpha: NDArray, values: Values, ratios: NDArray) -> None:
         return None
@@ -122,13 +123,12 @@ class SpeedDependent(RestitutionLaw):
     def speed_ratios(self, alpha: NDArray, values: Values, n_flights: int
                      ) -> tuple[NDArray, NDArray]:
         exponent = _column(values[EXPONENT], alpha.shape)
-        loss = 1.0 - alpha
         ratios = np.empty((alpha.size, n_flights))
         valid = np.ones(alpha.shape, dtype=bool)
         ratio = np.ones_like(alpha)  # r_0: the first impact comes at the full contact speed
         with np.errstate(all="ignore"):
             for k in range(n_flights):
-                restitution = 1.0 - loss * ratio**exponent
+                restitution = self.restitution(alpha, values, ratio)
                 # d ln r_k / d ln r_{k−1} = 1 − p (1 − α_k) / α_k > 0: a harder impact
                 # rebounds faster (module docstring).
                 valid &= ((restitution > 0.0) & (restitution <= 1.0)
@@ -138,21 +138,29 @@ class SpeedDependent(RestitutionLaw):
         return ratios, valid
 
     def restitution(self, alpha: NDArray, values: Values, ratio: NDArray) -> NDArray:
-        exponent = _column(values[EXPONENT], alpha.shape)
+        # The law, written once: 1 − α(v) = (1 − α)(v / v₁)^p.
+        ratio = np.asarray(ratio, float)
+        exponent = _per_row(values[EXPONENT], alpha.shape, ratio)
         with np.errstate(all="ignore"):
-            return 1.0 - (1.0 - alpha) * np.asarray(ratio, float) ** exponent
+            return 1.0 - _per_row(1.0 - alpha, alpha.shape, ratio) * ratio**exponent
 
     def propagation(self, alpha: NDArray, values: Values, ratios: NDArray) -> NDArray:
-        exponent = _column(values[EXPONENT], alpha.shape)[:, None]
         before = np.ones_like(ratios)
         before[:, 1:] = ratios[:, :-1]  # r_{k−1}, the speed impact k comes in with
-        loss = (1.0 - alpha)[:, None] * before**exponent  # 1 − α_k
-        return 1.0 - exponent * loss / (1.0 - loss)
+        restitution = self.restitution(alpha, values, before)  # α_k
+        exponent = _per_row(values[EXPONENT], alpha.shape, ratios)
+        return 1.0 - exponent * (1.0 - restitution) / restitution
 
 
 def _column(value: ArrayLike, shape: tuple[int, ...]) -> NDArray:
     """A parameter as a float array of the batch's shape (a fixed one is a scalar)."""
     return np.broadcast_to(np.asarray(value, float), shape)
+
+
+def _per_row(value: ArrayLike, shape: tuple[int, ...], like: NDArray) -> NDArray:
+    """:func:`_column`, shaped to broadcast along the rows of ``like`` (one value per batch
+    row, whether ``like`` holds one ratio per row or a row of them)."""
+    return _column(value, shape).reshape(shape + (1,) * (like.ndim - len(shape)))
 
 
 #: Every restitution law by name; the first is the default (a model's name without a slash).
