@@ -270,8 +270,10 @@ def _parse_priors(section: dict[str, Any], models: tuple[str, ...], has_stick: b
                 priors[spec.name] = parse_prior(DEFAULT_PRIORS[key], spec, f"priors.{key}")
                 continue
             if key not in DEFAULT_VALUES:
+                predicted = (", or a [stick] section to predict it from"
+                             if key == GEOMETRY_PREDICTS else "")
                 raise ConfigError(f"priors.{key}: missing (the {model} model needs the "
-                                  f"{spec.description})")
+                                  f"{spec.description}{predicted})")
             priors[spec.name] = Fixed(DEFAULT_VALUES[key] * spec.to_si)
     return priors
 
