@@ -178,6 +178,10 @@ class _Search:
         if r.snr_db < p.min_snr_db and not _resonant(r.sample / ex.sr, r, prior, p):
             return None  # there is a sound, but not one that can be timed
         r = start_of_sound(ex, r, dt, self.margin, prior)
+        if r.sample / ex.sr < t_from + p.min_interval_s:
+            # Timed back into the flight it should end (the refinement searches before
+            # the window): not a later bounce.
+            return None
         if prior is not None and abs(r.sample / ex.sr - prior.mean_s) > OFF_LAW * off_sd(
                 prior, r.sigma_s, ex.floor_s):
             # Far from where the bounces before put this one: a sound that is not it, or

@@ -68,12 +68,20 @@ class Roll:
 
     def with_onset(self, time_s: float, bounce: int, amplitude: float, snr_db: float,
                    sigma_s: float, level: float = float("nan")) -> Roll:
-        """This roll with one more onset, kept in time order."""
-        cols = [np.append(getattr(self, f.name), v) for f, v in
-                zip(fields(self), (time_s, bounce, amplitude, snr_db, sigma_s, level),
-                    strict=True)]
-        order = np.argsort(cols[0], kind="stable")
-        return Roll(*(c[order] for c in cols))
+        """This roll with one more onset after its last: a later bounce at a later time.
+
+        Raises
+        ------
+        ValueError
+            If the onset is not after the last one in both time and bounce number (the
+            columns would no longer be in one order).
+        """
+        if len(self) and not (time_s > self.time_s[-1] and bounce > self.bounce[-1]):
+            raise ValueError(f"onset {time_s:.6f} s (bounce {bounce}) is not after the "
+                             f"last, {self.time_s[-1]:.6f} s (bounce {self.bounce[-1]})")
+        return Roll(*(np.append(getattr(self, f.name), v) for f, v in
+                      zip(fields(self), (time_s, bounce, amplitude, snr_db, sigma_s, level),
+                          strict=True)))
 
     def with_times(self, time_s: np.ndarray, amplitude: np.ndarray, snr_db: np.ndarray,
                    sigma_s: np.ndarray) -> Roll:

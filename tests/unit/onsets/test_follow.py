@@ -154,3 +154,48 @@ def test_tail_fit_recovers_an_exponential_scale(q):
     assert _tail(with_impacts, q)[2] == pytest.approx(beta, rel=0.01)
     # nothing above the threshold: a unit scale
     assert _tail(np.zeros(100), q)[2] == 1.0
+
+
+def test_a_roll_only_grows_forward():
+    """An onset that is not after the roll's last (in time and bounce) is refused: the
+    roll's columns keep one order, and the search cannot add the same impact again."""
+    roll = Roll(np.array([0.5, 0.75]), np.array([0, 1]), np.ones(2), np.full(2, 20.0),
+                np.full(2, 1e-4), np.ones(2))
+    assert roll.with_onset(0.9, 3, 1.0, 20.0, 1e-4).bounce.tolist() == [0, 1, 3]
+    for time_s, bounce in ((0.74, 2), (0.9, 1)):
+        with pytest.raises(ValueError, match="not after the last"):
+            roll.with_onset(time_s, bounce, 1.0, 20.0, 1e-4)
+
+
+def test_an_onset_timed_back_into_its_flight_does_not_stall_the_search():
+    """A recording ``calibrate --audio`` renders (table2_h80's priors, draw 28: a jitter of
+    several ms makes flights grow and shrink) where the window after a 1.2 ms flight timed
+    its onset 0.02 ms *before* the roll's last. It was added, sorted in before the last, and
+    the same window was searched again for ever (over ten CPU-minutes). Now the extractor
+    finishes, and every roll's onsets rise in time and in bounce number."""
+    import io
+
+    from drumroll.calibration.recording import Recorder, time_limit
+    from drumroll.calibration.roll import RollSimulator
+    from drumroll.calibration.run import draw_seeds
+    from drumroll.config import load_config
+    from drumroll.onsets import detect
+    from drumroll.simulation.simulate import render_roll
+
+    config = load_config(DATA / "table2_h80.toml")
+    roll_rng, sound_rng, _, _ = draw_seeds(0, 28)
+    roll = RollSimulator(config, config.model, 20).draw(roll_rng)
+    recorder = Recorder(config)
+    rendering = render_roll(recorder.settings, recorder.sources, roll.times - roll.t0,
+                            roll.speeds, sound_rng)
+    buffer = io.BytesIO()
+    sf.write(buffer, rendering.samples, rendering.sample_rate, subtype="PCM_16", format="WAV")
+    buffer.seek(0)
+    samples, rate = sf.read(buffer, dtype="float64")
+    with time_limit(120):  # raises TooSlow where the search would stall
+        onsets = detect(samples, rate)
+    assert len(onsets) >= 4
+    for number in np.unique(onsets.roll):
+        mine = onsets.roll == number
+        assert np.all(np.diff(onsets.time_s[mine]) > 0)
+        assert np.all(np.diff(onsets.bounce[mine]) > 0)
