@@ -4,26 +4,27 @@ Usage: ``python benchmarks/onsets.py [--trials N] [--first-seed S] [--jitter-ms 
 [--no-memory] [--no-peers] [--no-real-hits | --real-hits-only] [--no-phone | --phone-only]
 [--phone-condition TEXT ...] [--misses] [--against REV]``
 
-Per condition: F1 at ±2 ms (misses counted only for impacts with truth ``local_snr_db >= 0``;
-a detection matching no impact is a false positive; one matching an inaudible impact is
-neither), recall over all impacts, offset-free timing error (MAD of detected - true) over the
-impacts F1 counts, as the corpus's own scorer (``../shared/tools/score_onsets.py``) has it,
-and ("MAD all") over every matched detection, inaudible impacts included, as this benchmark
-had it before (an extractor that reports more of a roll's inaudible bounces scores worse on
-it, whatever their ``sigma_s`` says), and onsets before the first impact / after the last
-one. ``--against REV`` scores the onset extractor of a git revision (its ``src`` from
-``git archive``, run in a subprocess) on the same recordings, in the same tables, for a
-before/after comparison in one run. Peers: librosa ``onset_detect`` with its
-defaults, and with hop 64 and ``backtrack=True``. The grid is every SNR (30/20/12 dB) x room
-and disturbance condition x sample rate (22.05/44.1/48/96 kHz); then recordings that hold no
-roll (one hit, two, three unrelated ones), which should give none. Then the same rolls
-(same seeds) made of real recorded hits (``data/samples``: three AVL snares in five velocity
-layers, the Sonic Pi snare in two, claves for a ball) in two measured rooms, scored the same
-way (``--no-real-hits`` skips this grid, ``--real-hits-only`` runs nothing else). Then
-throughput on a 60 s 44.1 kHz file (best of five, one core); peak memory (peak RSS of a fresh
-subprocess, and tracemalloc's peak) and speed on 10-, 20- and 60-minute files of a roll
-every 3.2 s, written blockwise; and on a 60-minute AAC .m4a (decoded by FFmpeg into a
-temporary file).
+Per condition: F1 at ±2 ms (misses counted only for impacts with truth ``local_snr_db >=
+0``; a detection matching no impact is a false positive; one matching an inaudible impact is
+neither), recall over all impacts, offset-free timing error (MAD of detected - true) over
+the impacts F1 counts, as the corpus's own scorer (``../shared/tools/score_onsets.py``) has
+it, and ("MAD all") over every matched detection, inaudible impacts included, as this
+benchmark had it before (an extractor that reports more of a roll's inaudible bounces scores
+worse on it, whatever their ``sigma_s`` says), and onsets before the first impact / after
+the last one. ``--against REV`` scores the onset extractor of a git revision (its ``src``
+from ``git archive``, run in a subprocess) on the same recordings, in the same tables, for a
+before/after comparison in one run, and times both on the same impacts: each roll's MAD over
+the impacts both matched, and the paired difference with a bootstrap interval over rolls.
+Peers: librosa ``onset_detect`` with its defaults, and with hop 64 and ``backtrack=True``.
+The grid is every SNR (30/20/12 dB) x room and disturbance condition x sample rate
+(22.05/44.1/48/96 kHz); then recordings that hold no roll (one hit, two, three unrelated
+ones), which should give none. Then the same rolls (same seeds) made of real recorded hits
+(``data/samples``: three AVL snares in five velocity layers, the Sonic Pi snare in two,
+claves for a ball) in two measured rooms, scored the same way (``--no-real-hits`` skips this
+grid, ``--real-hits-only`` runs nothing else). Then throughput on a 60 s 44.1 kHz file (best
+of five, one core); peak memory (peak RSS of a fresh subprocess, and tracemalloc's peak) and
+speed on 10-, 20- and 60-minute files of a roll every 3.2 s, written blockwise; and on a
+60-minute AAC .m4a (decoded by FFmpeg into a temporary file).
 
 Phone recordings (``--phone-only`` runs nothing else, ``--no-phone`` skips them): the corpus
 and the real ping-pong encoded as a phone, a camera or a messaging app would (AAC 128 and
@@ -104,6 +105,43 @@ def evaluate(det: np.ndarray, truth: np.ndarray, audible: np.ndarray, tol: float
 def _mad(e: np.ndarray) -> float:
     """Median absolute deviation of ``e`` about its median (NaN for none)."""
     return float(np.median(np.abs(e - np.median(e)))) if e.size else float("nan")
+
+
+def matched_errors(det: np.ndarray, truth: np.ndarray, tol: float = 0.002) -> dict[int, float]:
+    """Each detection's error against its nearest impact, by impact index, within ``tol``."""
+    if det.size == 0:
+        return {}
+    d = det[:, None] - truth[None, :]
+    near = np.abs(d).argmin(axis=1)
+    err = d[np.arange(det.size), near]
+    return {int(k): float(e) for k, e in zip(near, err, strict=True)
+            if abs(e) <= tol}
+
+
+def same_impacts_mad(ours: np.ndarray, theirs: np.ndarray, truth: np.ndarray
+                     ) -> tuple[float, float]:
+    """Both extractors' MAD (s) over the impacts both matched: the like-for-like timing
+    comparison (an extractor that finds more faint impacts than another is not timed on
+    impacts the other never reported)."""
+    a, b = matched_errors(ours, truth), matched_errors(theirs, truth)
+    common = sorted(set(a) & set(b))
+    if not common:
+        return float("nan"), float("nan")
+    return (_mad(np.array([a[k] for k in common])), _mad(np.array([b[k] for k in common])))
+
+
+def paired_difference_ms(ours: np.ndarray, theirs: np.ndarray, seed: int = 0
+                         ) -> tuple[float, float, float]:
+    """Median over rolls of ours - theirs (per-roll MADs, s) in ms, with a 95 % bootstrap
+    interval over rolls (2000 resamples)."""
+    ok = np.isfinite(ours) & np.isfinite(theirs)
+    diff = 1e3 * (ours[ok] - theirs[ok])
+    if diff.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    rng = np.random.default_rng(seed)
+    boot = np.median(diff[rng.integers(0, diff.size, (2000, diff.size))], axis=1)
+    lo, hi = np.quantile(boot, [0.025, 0.975])
+    return float(np.median(diff)), float(lo), float(hi)
 
 
 def standard_errors(table, truth: np.ndarray) -> np.ndarray:
@@ -221,6 +259,7 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
     print(f"{'condition':28s} {'method':17s} {'F1':>5s} {'recall':>6s} {'MAD ms':>7s} "
           f"{'MAD all':>7s} {'before':>6s} {'after':>5s}")
     zs: dict[str, dict[int, list]] = {}
+    paired: dict[int, list[tuple[float, float]]] = {}
     for snr, label, recording in grid:
         acc: dict[str, list] = {}
         for seed in range(first_seed, first_seed + trials):
@@ -242,6 +281,8 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
                     zs.setdefault(against.name, {}).setdefault(snr, []).append(
                         standard_errors(theirs, truth))
                 results[against.name] = np.zeros(0) if theirs is None else theirs.time_s
+                paired.setdefault(snr, []).append(
+                    same_impacts_mad(ours, results[against.name], truth))
             if with_peers:
                 results.update(peers(r.samples, r.sample_rate))
             for method, det in results.items():
@@ -267,6 +308,16 @@ def score_grid(grid, trials: int, with_peers: bool, first_seed: int, jitter_s: f
             if method in zs:
                 summary.setdefault(method, {})[snr] = {"f1": float(np.mean(vs[:, 0])),
                                                        "mad_ms": mad, "mad_all_ms": mad_all}
+    if paired:
+        print(f"\ntiming on the same impacts (the impacts both drumroll and {against.name} "
+              "matched, roll by roll): median per-roll MAD, and the median paired difference "
+              "with its 95 % bootstrap interval over rolls")
+        for snr in (30, 20, 12):
+            pairs = np.array(paired.get(snr, []), dtype=float).reshape(-1, 2)
+            diff, lo, hi = paired_difference_ms(pairs[:, 0], pairs[:, 1])
+            print(f"  {snr} dB: drumroll {_median_ms(pairs[:, 0]):.3f} ms, {against.name} "
+                  f"{_median_ms(pairs[:, 1]):.3f} ms, difference {diff:+.4f} ms "
+                  f"[{lo:+.4f}, {hi:+.4f}] ({pairs.shape[0]} rolls)")
     print("\nsigma_s against the actual errors (a unit Gaussian has 0.683 within 1 sigma, "
           "0.954 within 2, 0.0000006 beyond 5)")
     for method, by_snr in zs.items():
