@@ -103,7 +103,7 @@ def onwards(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
 def law(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:
     """Every onset timed again with the whole roll's law as its prior
     (:func:`~.sequence.retime_by_law`)."""
-    return retime_by_law(roll, ex)
+    return retime_by_law(roll, ex, min_snr_db=ctx.follow.min_snr_db)
 
 
 def envelope(roll: Roll, ex: Excerpt, ctx: Context) -> Roll:

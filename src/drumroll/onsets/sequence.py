@@ -94,8 +94,8 @@ def _robust_fit(times: np.ndarray, bounce: np.ndarray, weight: np.ndarray, p0: l
     return cauchy_least_squares(resid, jac, np.asarray(p0, dtype=float))
 
 
-def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | None = None
-                 ) -> SequenceFit | None:
+def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | None = None,
+                 timeable: np.ndarray | None = None) -> SequenceFit | None:
     """Robust fit of the flight law to onset ``times`` with timing uncertainties ``sigmas``
     at bounce numbers ``bounce`` (default 0, 1, 2, …: no bounce unheard).
 
@@ -103,7 +103,13 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | Non
     (measured as the MAD of the residuals, corrected for the parameters fitted); the loss is
     Cauchy's, so a mistimed onset hardly pulls. The drift of the ratio (``c``) is kept only
     when it pays for itself by the Bayesian information criterion on the Cauchy deviance.
-    Returns None for fewer than :data:`_MIN_ONSETS` onsets or flights that do not shrink.
+    The scatter is never put below the typical ``sigmas`` of the onsets flagged
+    ``timeable`` (default: all), those whose start can be told: an onset quieter than what
+    it lands in has a wide ``sigma_s`` because its own timing is unsure, which says nothing
+    of how closely the bouncer keeps to its law, so the more of them a roll reports the
+    wider every onset's prior would be (a faint bounce's prior let a far step 3 ms early
+    win). Returns None for fewer than :data:`_MIN_ONSETS` onsets or flights that do not
+    shrink.
     """
     n = times.size
     bounce = np.arange(n) if bounce is None else np.asarray(bounce, dtype=np.int64)
@@ -132,7 +138,8 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | Non
         r = times - law
         dof = max(n - p.size, 1)
         scatter = _MAD_TO_SIGMA * float(np.median(np.abs(r))) * np.sqrt(n / dof)
-    scatter = max(scatter, float(np.sqrt(np.median(sig2))))
+    told = np.ones(n, dtype=bool) if timeable is None else np.asarray(timeable, dtype=bool)
+    scatter = max(scatter, float(np.sqrt(np.median(sig2[told] if told.any() else sig2))))
     # The fit's own uncertainty at each onset, from the linearised weighted least squares.
     jw = jmat / np.sqrt(sig2 + scatter**2)[:, None]
     try:
@@ -143,7 +150,8 @@ def fit_sequence(times: np.ndarray, sigmas: np.ndarray, bounce: np.ndarray | Non
     return SequenceFit(law, np.sqrt(scatter**2 + np.maximum(var_fit, 0.0)), dof)
 
 
-def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05) -> Roll:
+def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05,
+                  min_snr_db: float = 0.0) -> Roll:
     """Place every onset at its posterior given the roll's law (see the module docstring).
 
     Parameters
@@ -154,6 +162,9 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05) -> Roll:
         The audio around the roll.
     outlier
         Prior probability that a bounce is off the law by more than its scatter.
+    min_snr_db
+        Local SNR from which an onset's start can be told (``timeable`` of
+        :func:`fit_sequence`).
 
     Returns
     -------
@@ -161,7 +172,7 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05) -> Roll:
         The roll timed again (unchanged when no law could be fitted).
     """
     times = roll.time_s
-    law = fit_sequence(times, roll.sigma_s, roll.bounce)
+    law = fit_sequence(times, roll.sigma_s, roll.bounce, roll.snr_db >= min_snr_db)
     if law is None:
         return roll
     sr = ex.sr
