@@ -299,6 +299,8 @@ def next_by_envelope(onsets: Roll, ex: Excerpt, dt: float, sd: float) -> Roll | 
     if logsumexp(post) < STRONG:
         return None
     found = _place(roll, trials, np.exp(post - post.max()), ex, mean * width)
+    if not found[0] > onsets.time_s[-1]:
+        return None  # placed back into the flight it should end: not a later bounce
     return onsets.with_onset(found[0], int(onsets.bounce[-1]) + 1, *found[1:])
 
 
