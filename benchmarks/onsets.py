@@ -82,14 +82,19 @@ def roll_truth(rng: np.random.Generator, jitter_s: float = 0.0
     return times, speeds
 
 
+def nearest_errors(det: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each detection's nearest true impact (index) and its error against it (s)."""
+    d = det[:, None] - truth[None, :]
+    near = np.abs(d).argmin(axis=1)
+    return near, d[np.arange(det.size), near]
+
+
 def evaluate(det: np.ndarray, truth: np.ndarray, audible: np.ndarray, tol: float = 0.002):
     """F1, recall, MAD (s) over the matched impacts F1 counts, onsets before the first impact
     and after the last, and MAD (s) over every matched detection (module docstring)."""
     if det.size == 0:
         return 0.0, 0.0, np.nan, 0, 0, np.nan
-    d = det[:, None] - truth[None, :]
-    near = np.abs(d).argmin(axis=1)
-    err = d[np.arange(det.size), near]
+    near, err = nearest_errors(det, truth)
     ok = np.abs(err) <= tol
     hit = set(near[ok].tolist())
     tp = len(hit & set(np.flatnonzero(audible).tolist()))
@@ -112,9 +117,7 @@ def matched_errors(det: np.ndarray, truth: np.ndarray, tol: float = 0.002) -> di
     """Each detection's error against its nearest impact, by impact index, within ``tol``."""
     if det.size == 0:
         return {}
-    d = det[:, None] - truth[None, :]
-    near = np.abs(d).argmin(axis=1)
-    err = d[np.arange(det.size), near]
+    near, err = nearest_errors(det, truth)
     return {int(k): float(e) for k, e in zip(near, err, strict=True)
             if abs(e) <= tol}
 
@@ -151,8 +154,7 @@ def standard_errors(table, truth: np.ndarray) -> np.ndarray:
     Gaussian."""
     if len(table.time_s) == 0:
         return np.zeros(0)
-    d = table.time_s[:, None] - truth[None, :]
-    err = d[np.arange(d.shape[0]), np.abs(d).argmin(axis=1)]
+    err = nearest_errors(table.time_s, truth)[1]
     return (err - np.median(err)) / table.sigma_s
 
 
@@ -452,7 +454,7 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002, *,
                 tables[name] = table
         except AudioError:
             det, bounce, sigma = np.zeros(0), np.zeros(0, dtype=int), np.zeros(0)
-        lag = np.array([d - t[np.argmin(np.abs(t - d))] for d in det])
+        lag = nearest_errors(det, t)[1]
         lag = lag[np.abs(lag) <= 0.025]
         offset = float(np.median(lag)) if lag.size else 0.0
         det = det - offset
@@ -472,7 +474,7 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002, *,
         err = np.array([det[j] - t[i] for i, j in match.items()])
         mad = _mad(np.array([det[j] - t[i] for i, j in match.items() if counted[i]]))
         mads_all.append(_mad(err))
-        nearest = [int(np.argmin(np.abs(t - d))) for d in det]
+        nearest = nearest_errors(det, t)[0]
         numbered = bool(det.size) and nearest[0] == 0 and all(
             bounce[k] - bounce[0] == i for k, i in enumerate(nearest))
         first_ok += 0 in match
@@ -599,8 +601,7 @@ def onset_shifts(reference: dict, coded: dict, pair_s: float = 0.003
         table = coded.get(name)
         if table is None or len(table) == 0 or len(ref) == 0:
             continue
-        d = table.time_s[None, :] - ref.time_s[:, None]
-        s = d[np.arange(d.shape[0]), np.abs(d).argmin(axis=1)]
+        s = -nearest_errors(ref.time_s, table.time_s)[1]  # coded minus reference
         found += int(np.count_nonzero(np.abs(s) <= 1e-3))
         s = s[np.abs(s) <= pair_s]
         if s.size:

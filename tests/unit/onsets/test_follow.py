@@ -173,27 +173,17 @@ def test_an_onset_timed_back_into_its_flight_does_not_stall_the_search():
     its onset 0.02 ms *before* the roll's last. It was added, sorted in before the last, and
     the same window was searched again for ever (over ten CPU-minutes). Now the extractor
     finishes, and every roll's onsets rise in time and in bounce number."""
-    import io
-
-    from drumroll.calibration.recording import Recorder, time_limit
+    from drumroll.calibration.recording import Recorder
     from drumroll.calibration.roll import RollSimulator
     from drumroll.calibration.run import draw_seeds
     from drumroll.config import load_config
-    from drumroll.onsets import detect
-    from drumroll.simulation.simulate import render_roll
 
     config = load_config(DATA / "table2_h80.toml")
     roll_rng, sound_rng, _, _ = draw_seeds(0, 28)
     roll = RollSimulator(config, config.model, 20).draw(roll_rng)
-    recorder = Recorder(config)
-    rendering = render_roll(recorder.settings, recorder.sources, roll.times - roll.t0,
-                            roll.speeds, sound_rng)
-    buffer = io.BytesIO()
-    sf.write(buffer, rendering.samples, rendering.sample_rate, subtype="PCM_16", format="WAV")
-    buffer.seek(0)
-    samples, rate = sf.read(buffer, dtype="float64")
-    with time_limit(120):  # raises TooSlow where the search would stall
-        onsets = detect(samples, rate)
+    # Rendered, stored as 16-bit WAV and heard as calibrate does it, under its time limit
+    # (TooSlow where the search would stall).
+    onsets = Recorder(config).record(roll, sound_rng).onsets
     assert len(onsets) >= 4
     for number in np.unique(onsets.roll):
         mine = onsets.roll == number
