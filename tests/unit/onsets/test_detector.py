@@ -88,7 +88,7 @@ def simulated_roll(seed: int, *, snr_db: float = 30.0, sr: int = 44100, room: Ro
     flights = tb * alpha ** np.arange(1, 80)
     times = np.concatenate(([0.0], np.cumsum(flights[flights > 0.004])))
     speeds = rng.uniform(0.8, 1.6) * alpha ** np.arange(times.size)
-    return render(times, speeds, sample_rate=sr, room=Room(), rng=rng,
+    return render(times, speeds, sample_rate=sr, room=room or Room(), rng=rng,
                   disturbances=Disturbances(snr_db=snr_db, hum_hz=hum_hz, spurious=spurious))
 
 
@@ -464,15 +464,9 @@ def _shifted(shape: np.ndarray, n: int, at: int) -> np.ndarray:
 
 
 def benchmark_roll(snr_db: float, sr: int, seed: int):
-    """The roll ``benchmarks/onsets.py`` renders for this SNR and seed (its geometric law,
-    its random stream), in its "clean" room: no echo, hum or stray sounds."""
-    rng = np.random.default_rng(int(1000 * snr_db) + seed)
-    alpha, tb = rng.uniform(0.8, 0.95), rng.uniform(0.15, 0.4)
-    flights = tb * alpha ** np.arange(1, 80)
-    times = np.concatenate(([0.0], np.cumsum(flights[flights > 0.004])))
-    speeds = rng.uniform(0.8, 1.6) * alpha ** np.arange(times.size)
-    return render(times, speeds, sample_rate=sr, room=Room(), rng=rng,
-                  disturbances=Disturbances(snr_db=snr_db))
+    """The roll ``benchmarks/onsets.py`` renders for this SNR and seed in its "clean"
+    condition: :func:`simulated_roll` with the benchmark's seed."""
+    return simulated_roll(int(1000 * snr_db) + seed, snr_db=snr_db, sr=sr)
 
 
 def test_faint_onsets_do_not_widen_the_laws_prior():
