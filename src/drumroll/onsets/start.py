@@ -80,6 +80,14 @@ _PRIOR_JITTER = 0.005
 #: degrees of freedom for its scatter).
 _HISTORY, _MIN_FLIGHTS = 6, 4
 
+#: Prior probability that the first impact has no lag under the next bounces' ring
+#: (:func:`ring_lag`): as likely as not.
+_NO_LAG = 0.5
+
+#: Degrees of freedom of an alignment's error (:func:`ring_lag`), as of the other priors
+#: on onset times here (:class:`StartPrior`).
+_ALIGN_DOF = 4.0
+
 #: Least margin (:func:`margin_db`) of a bounce whose recorded background the first impact
 #: is timed in: a tenfold power, where the envelope shows the sound's shape above its
 #: background rather than the noise's.
@@ -306,13 +314,74 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
     aligned, to the sample, with that bounce's envelope from its onset on (least squares of
     the log power over :data:`_ALIGN_S`, the level difference fitted). The bounce's onset
     less the aligned offset is where the first impact's onset is on the same point of its
-    sound; the median over the bounces moves it, their spread goes into its ``sigma_s``.
+    sound; the lag these alignments show (:func:`ring_lag`, which weighs how well they
+    agree against a lag of nil) moves it, and its uncertainty goes into its ``sigma_s``.
     For a sound that starts at its loudest the shift is nil; for one whose first stages are
     under the ring (a snare, a lossy codec's pre-echo) it is their length. Only bounces that
     stand out of their background by :data:`_CLEAR_DB` are aligned on.
     """
-    if len(roll) < 3:
+    found, lo, hi = ring_alignments(roll, ex)
+    if found.size == 0:
         return roll
+    sr = ex.sr
+    shift, sd = ring_lag(found, lo, hi)
+    cols = [np.array(c, dtype=float) for c in (roll.time_s, roll.amplitude, roll.snr_db,
+                                               roll.sigma_s)]
+    cols[0][0] += shift / sr
+    cols[3][0] = math.hypot(cols[3][0], sd / sr)
+    return roll.with_times(*cols)
+
+
+def ring_lag(found: np.ndarray, lo: int, hi: int) -> tuple[float, float]:
+    """The first impact's lag under the next bounces' ring, from their alignments ``found``
+    (:func:`ring_alignments`; samples, searched over ``lo`` to ``hi``): its posterior
+    median and the root-mean-square error of that median (samples).
+
+    Each alignment is the lag plus an error: a Student t (:data:`_ALIGN_DOF` degrees of
+    freedom: now and then a bounce's own sound, or its own onset, is off) with one scale for
+    all of them that is not known beforehand (uniform in its log, from the 1/sqrt(12) sample
+    that rounding an alignment to the sample leaves, to the range searched), so that how
+    well the alignments agree measures it. The lag is a priori as likely nil as not
+    (:data:`_NO_LAG`): nil where the sound starts at its loudest, or where the first
+    impact's change point is already at the same point of its sound as the next ones';
+    otherwise anywhere in the range searched, uniform in the log of its size from one sample
+    to either end of the range (no scale of a first stage preferred). The posterior median
+    is nil wherever the alignments make a lag no more likely than not: alignments that agree
+    move the onset (a snare's first 0.6 ms under the ring, or a consistent two samples),
+    alignments that scatter as much as they differ from nil leave it where it is.
+    """
+    f = np.asarray(found, dtype=float)
+    if f.size == 0 or hi <= lo:
+        return 0.0, 0.0
+    scale = np.geomspace(1.0 / math.sqrt(12.0), float(hi - lo), 32)
+    # The lags: every sample of the range, and an eighth of a sample near each alignment
+    # (where agreeing alignments make the likelihood a fraction of a sample wide).
+    fine = (np.round(f)[:, None] + np.arange(-3.0, 3.0, 0.125)[None, :]).ravel()
+    lag = np.unique(np.concatenate((np.arange(lo, hi + 1.0), fine[(fine >= lo) & (fine <= hi)])))
+    width = np.gradient(lag)  # each lag's share of the range
+    grid = np.append(lag, 0.0)  # the slab's lags, then the nil lag
+    z = (f[None, None, :] - grid[:, None, None]) / scale[None, :, None]
+    ll = np.sum(student_t_logpdf_fixed(z * z, _ALIGN_DOF), axis=2) - f.size * np.log(scale)
+    top = ll.max(axis=1, keepdims=True)
+    log_like = top[:, 0] + np.log(np.mean(np.exp(ll - top), axis=1))  # the scale integrated out
+    prior = width / np.maximum(np.abs(lag), 1.0)
+    log_prior = np.append(np.log(prior / prior.sum() * (1.0 - _NO_LAG)), math.log(_NO_LAG))
+    post = log_like + log_prior
+    weight = np.exp(post - post.max())
+    weight /= weight.sum()
+    order = np.argsort(grid, kind="stable")
+    median = float(grid[order][np.searchsorted(np.cumsum(weight[order]), 0.5)])
+    return median, math.sqrt(float(np.sum(weight * (grid - median) ** 2)))
+
+
+def ring_alignments(roll: Roll, ex: Excerpt) -> tuple[np.ndarray, int, int]:
+    """Each of the next :data:`_RINGING` bounces' alignment of the first impact
+    (:func:`first_in_ring`): the shift (samples) that puts the first onset at the same point
+    of its sound as that bounce's onset is of its own (empty where none can be made), and
+    the least and greatest shift searched."""
+    none = (np.zeros(0, dtype=np.int64), 0, 0)
+    if len(roll) < 3:
+        return none
     sr = ex.sr
     _, w = ex.band_power()
     y2 = ex.band_energy()
@@ -331,7 +400,7 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
     shifts = np.arange(-round(0.001 * sr),
                        min(reach, round(0.5 * (roll.time_s[1] - roll.time_s[0]) * sr) - 1) + 1)
     if n0 - ex.start + shifts[0] - before * w < 0 or n0 + reach + n_bins * w > ex.stop:
-        return roll
+        return none
     first = envelope(n0 + shifts[:, None] + rel[None, :])  # (shifts, bins)
     level0 = float(envelope(n0 + np.arange(n_bins) * w).max())
     found = []
@@ -350,15 +419,7 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
         resid = seen - np.log(target)[None, :]
         resid -= resid.mean(axis=1, keepdims=True)  # the level difference, fitted
         found.append(int(shifts[int(np.argmin(np.sum(resid**2, axis=1)))]))
-    if not found:
-        return roll
-    shift = float(np.median(found))
-    spread = float(np.std(found)) if len(found) > 1 else 0.0
-    cols = [np.array(c, dtype=float) for c in (roll.time_s, roll.amplitude, roll.snr_db,
-                                               roll.sigma_s)]
-    cols[0][0] += shift / sr
-    cols[3][0] = math.hypot(cols[3][0], spread / sr)
-    return roll.with_times(*cols)
+    return np.array(found, dtype=np.int64), int(shifts[0]), int(shifts[-1])
 
 
 def _replaced(roll: Roll, j: int, r: Refined, sr: int) -> Roll:

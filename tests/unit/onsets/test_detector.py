@@ -496,3 +496,45 @@ def test_a_faint_bounce_is_not_moved_to_a_far_step_by_a_wide_prior():
     np.testing.assert_array_equal(table.bounce[:8], np.arange(8))
     err = table.time_s - r.impact_times_s[table.bounce]
     assert abs(err[5] - np.median(err)) < 1.5e-3
+
+
+@pytest.mark.parametrize(("found", "lag"), [
+    ([24, 24, 24, 24], 24.0),     # the corpus's pearl2 at 48 kHz: its first 0.5 ms under the ring
+    ([58, 59, 59, 56], 58.0),     # a hard release at 96 kHz
+    ([-2, -2, -2, -4], -2.5),     # the corpus's stereo porkpie: two samples, every time
+    ([0, 0, 0, 0], 0.0),
+])
+def test_ring_alignments_that_agree_move_the_first_impact(found, lag):
+    from drumroll.onsets.start import ring_lag
+
+    shift, sd = ring_lag(np.array(found), -44, 352)
+    assert abs(shift - lag) < 0.75 and sd < 1.5
+
+
+@pytest.mark.parametrize("found", [
+    [-6, 36, -9, -8],    # the simulator at 20 dB: the bounces' own sounds differ from the first's
+    [13, -9, -4, -16],
+    [-2, -3, 4, -2],
+    [7, -5, 1, -12],     # the corpus's soft, noisy porkpie
+])
+def test_ring_alignments_that_disagree_leave_the_first_impact(found):
+    """Alignments that scatter as much as they differ from nil are no evidence of a lag: the
+    median of four moved the first onset by their noise (0.1-0.3 ms on the simulator), where
+    the change point had already put it at the same point of its sound as the next ones."""
+    from drumroll.onsets.start import ring_lag
+
+    shift, sd = ring_lag(np.array(found), -44, 352)
+    assert abs(shift) < 0.4 * abs(float(np.median(found))) + 0.5
+    assert sd > 0.5  # and the first onset's sigma_s says how unsure that is
+
+
+def test_the_first_impact_is_not_moved_by_disagreeing_ring_alignments():
+    """The benchmark's 20 dB, 22.05 kHz clean roll of seed 3: the next bounces' alignments of
+    the first impact were [13, -9, -4, -16] samples, and their median moved its onset 0.28 ms
+    ahead of the same point of the next bounces' sounds. They disagree as much as they
+    differ from nil, so it stays where its change point put it (0.01 ms from them)."""
+    r = benchmark_roll(20.0, 22050, 3)
+    table = detect(r.samples, r.sample_rate)
+    err = table.time_s - r.impact_times_s[table.bounce]
+    np.testing.assert_array_equal(table.bounce[:6], np.arange(6))
+    assert abs(err[0] - np.median(err[1:6])) < 0.1e-3
