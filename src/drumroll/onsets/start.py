@@ -88,6 +88,9 @@ _NO_LAG = 0.5
 #: on onset times here (:class:`StartPrior`).
 _ALIGN_DOF = 4.0
 
+#: Factor, either way, within which the sds of the alignments are known (:func:`ring_lag`).
+_SD_FACTOR = 3.0
+
 #: Least margin (:func:`margin_db`) of a bounce whose recorded background the first impact
 #: is timed in: a tenfold power, where the envelope shows the sound's shape above its
 #: background rather than the noise's.
@@ -320,11 +323,11 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
     under the ring (a snare, a lossy codec's pre-echo) it is their length. Only bounces that
     stand out of their background by :data:`_CLEAR_DB` are aligned on.
     """
-    found, lo, hi = ring_alignments(roll, ex)
+    found, sds, lo, hi = ring_alignments(roll, ex)
     if found.size == 0:
         return roll
     sr = ex.sr
-    shift, sd = ring_lag(found, lo, hi)
+    shift, sd = ring_lag(found, sds, lo, hi)
     cols = [np.array(c, dtype=float) for c in (roll.time_s, roll.amplitude, roll.snr_db,
                                                roll.sigma_s)]
     cols[0][0] += shift / sr
@@ -332,54 +335,65 @@ def first_in_ring(roll: Roll, ex: Excerpt) -> Roll:
     return roll.with_times(*cols)
 
 
-def ring_lag(found: np.ndarray, lo: int, hi: int) -> tuple[float, float]:
+def ring_lag(found: np.ndarray, sd: np.ndarray, lo: int, hi: int) -> tuple[float, float]:
     """The first impact's lag under the next bounces' ring, from their alignments ``found``
-    (:func:`ring_alignments`; samples, searched over ``lo`` to ``hi``): its posterior
-    median and the root-mean-square error of that median (samples).
+    with their sds ``sd`` (:func:`ring_alignments`; samples, searched over ``lo`` to
+    ``hi``): nil where a lag is no more likely than not, else its posterior median given
+    that there is one; and the root-mean-square error of that estimate (samples).
 
-    Each alignment is the lag plus an error: a Student t (:data:`_ALIGN_DOF` degrees of
-    freedom: now and then a bounce's own sound, or its own onset, is off) with one scale for
-    all of them that is not known beforehand (uniform in its log, from the 1/sqrt(12) sample
-    that rounding an alignment to the sample leaves, to the range searched), so that how
-    well the alignments agree measures it. The lag is a priori as likely nil as not
-    (:data:`_NO_LAG`): nil where the sound starts at its loudest, or where the first
-    impact's change point is already at the same point of its sound as the next ones';
-    otherwise anywhere in the range searched, uniform in the log of its size from one sample
-    to either end of the range (no scale of a first stage preferred). The posterior median
-    is nil wherever the alignments make a lag no more likely than not: alignments that agree
-    move the onset (a snare's first 0.6 ms under the ring, or a consistent two samples),
-    alignments that scatter as much as they differ from nil leave it where it is.
+    Each alignment is the lag plus an error of its own sd, as a Student t
+    (:data:`_ALIGN_DOF` degrees of freedom: now and then a bounce's own sound is not the
+    first impact's and its alignment is off by more). The sds are the stated ones times a
+    factor common to all that is only known to within :data:`_SD_FACTOR` either way
+    (uniform in its log): a bounce's ``sigma_s`` and a fit's spread may be conservative or
+    optimistic, and how well several alignments agree says by how much. The lag is a priori
+    as likely nil as not (:data:`_NO_LAG`): nil where the sound starts at its loudest, or
+    where the first impact's change point is already at the same point of its sound as the
+    next ones'; otherwise anywhere in the range searched, uniform in the log of its size from
+    one sample to either end of the range (no scale of a first stage preferred). Whether
+    there is a lag is decided by its posterior probability, how long by the posterior given
+    that there is one (a median of the whole posterior would fall between nil and the lag
+    the alignments show, where neither puts it): alignments that agree to within their
+    precision move the onset (a snare's first 0.6 ms under the ring, or a consistent two
+    samples), alignments as imprecise as they are far from nil, or that disagree, leave it.
     """
     f = np.asarray(found, dtype=float)
     if f.size == 0 or hi <= lo:
         return 0.0, 0.0
-    scale = np.geomspace(1.0 / math.sqrt(12.0), float(hi - lo), 32)
+    factor = np.geomspace(1.0 / _SD_FACTOR, _SD_FACTOR, 25)
+    scale = np.maximum(factor[:, None] * np.asarray(sd, dtype=float)[None, :],
+                       1.0 / math.sqrt(12.0))  # (factors, alignments)
     # The lags: every sample of the range, and an eighth of a sample near each alignment
-    # (where agreeing alignments make the likelihood a fraction of a sample wide).
+    # (where precise alignments make the likelihood a fraction of a sample wide).
     fine = (np.round(f)[:, None] + np.arange(-3.0, 3.0, 0.125)[None, :]).ravel()
     lag = np.unique(np.concatenate((np.arange(lo, hi + 1.0), fine[(fine >= lo) & (fine <= hi)])))
-    width = np.gradient(lag)  # each lag's share of the range
     grid = np.append(lag, 0.0)  # the slab's lags, then the nil lag
-    z = (f[None, None, :] - grid[:, None, None]) / scale[None, :, None]
-    ll = np.sum(student_t_logpdf_fixed(z * z, _ALIGN_DOF), axis=2) - f.size * np.log(scale)
+    z = (f[None, None, :] - grid[:, None, None]) / scale[None]
+    ll = np.sum(student_t_logpdf_fixed(z * z, _ALIGN_DOF, np.log(scale)[None]), axis=2)
     top = ll.max(axis=1, keepdims=True)
-    log_like = top[:, 0] + np.log(np.mean(np.exp(ll - top), axis=1))  # the scale integrated out
-    prior = width / np.maximum(np.abs(lag), 1.0)
+    log_like = top[:, 0] + np.log(np.mean(np.exp(ll - top), axis=1))  # the factor integrated out
+    prior = np.gradient(lag) / np.maximum(np.abs(lag), 1.0)  # each lag's share of the range
     log_prior = np.append(np.log(prior / prior.sum() * (1.0 - _NO_LAG)), math.log(_NO_LAG))
     post = log_like + log_prior
     weight = np.exp(post - post.max())
     weight /= weight.sum()
-    order = np.argsort(grid, kind="stable")
-    median = float(grid[order][np.searchsorted(np.cumsum(weight[order]), 0.5)])
-    return median, math.sqrt(float(np.sum(weight * (grid - median) ** 2)))
+    shift = 0.0
+    if weight[-1] < 0.5:  # a lag is more likely than not: its median given that it lags
+        shift = float(lag[np.searchsorted(np.cumsum(weight[:-1]), 0.5 * (1.0 - weight[-1]))])
+    return shift, math.sqrt(float(np.sum(weight * (grid - shift) ** 2)))
 
 
-def ring_alignments(roll: Roll, ex: Excerpt) -> tuple[np.ndarray, int, int]:
+def ring_alignments(roll: Roll, ex: Excerpt) -> tuple[np.ndarray, np.ndarray, int, int]:
     """Each of the next :data:`_RINGING` bounces' alignment of the first impact
     (:func:`first_in_ring`): the shift (samples) that puts the first onset at the same point
-    of its sound as that bounce's onset is of its own (empty where none can be made), and
-    the least and greatest shift searched."""
-    none = (np.zeros(0, dtype=np.int64), 0, 0)
+    of its sound as that bounce's onset is of its own (empty where none can be made), its sd
+    (samples), and the least and greatest shift searched.
+
+    An alignment's sd has two parts, in quadrature: how sharply the fit places it (the
+    spread of the profile likelihood of the shift, the residuals Gaussian with their variance
+    fitted and the bins' correlation tempering them as in :func:`rise_evidence`), and the
+    bounce's own ``sigma_s`` (its onset is where the alignment is measured from)."""
+    none = (np.zeros(0, dtype=np.int64), np.zeros(0), 0, 0)
     if len(roll) < 3:
         return none
     sr = ex.sr
@@ -403,7 +417,7 @@ def ring_alignments(roll: Roll, ex: Excerpt) -> tuple[np.ndarray, int, int]:
         return none
     first = envelope(n0 + shifts[:, None] + rel[None, :])  # (shifts, bins)
     level0 = float(envelope(n0 + np.arange(n_bins) * w).max())
-    found = []
+    found, sds = [], []
     for j in range(1, min(_RINGING, len(roll) - 1) + 1):
         nj = round(roll.time_s[j] * sr)
         n_ref = round(_REFERENCE_S * sr) // w
@@ -418,8 +432,20 @@ def ring_alignments(roll: Roll, ex: Excerpt) -> tuple[np.ndarray, int, int]:
         seen = np.log(first + ring * level0 / level_j)
         resid = seen - np.log(target)[None, :]
         resid -= resid.mean(axis=1, keepdims=True)  # the level difference, fitted
-        found.append(int(shifts[int(np.argmin(np.sum(resid**2, axis=1)))]))
-    return np.array(found, dtype=np.int64), int(shifts[0]), int(shifts[-1])
+        ssr = np.maximum(np.sum(resid**2, axis=1), 1e-300)
+        best = int(np.argmin(ssr))
+        r = resid[best]
+        rho = min(max(float(r[1:] @ r[:-1]) / max(float(r @ r), 1e-12), 0.0), 0.9)
+        # The profile likelihood of the shift: minus half the bins (tempered) times the log
+        # of the residual sum of squares.
+        log_like = -0.5 * rel.size * (1.0 - rho) / (1.0 + rho) * np.log(ssr / ssr[best])
+        weight = np.exp(log_like)
+        spread = math.sqrt(float(np.sum(weight * (shifts - shifts[best]) ** 2) / weight.sum()))
+        found.append(int(shifts[best]))
+        sds.append(math.hypot(spread, float(roll.sigma_s[j]) * sr))
+    return np.array(found, dtype=np.int64), np.array(sds), int(shifts[0]), int(shifts[-1])
+
+
 
 
 def _replaced(roll: Roll, j: int, r: Refined, sr: int) -> Roll:
