@@ -163,7 +163,7 @@ def test_onsets_quiet_says_nothing(tmp_path):
     quiet = subprocess.run([*args, str(tmp_path / "b.csv"), "--quiet"], env=_environment(),
                            capture_output=True, text=True, timeout=120)
     assert loud.returncode == quiet.returncode == 0
-    assert "16 impacts from 1.0896 s to 2.9303 s written to" in loud.stderr
+    assert "16 impacts from 1.0895 s to 2.9303 s written to" in loud.stderr
     assert quiet.stderr == "" and quiet.stdout == ""
     assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
 
@@ -442,7 +442,7 @@ def test_the_table_displays_its_table_and_figure_5(notebook):
 def test_the_onsets_display_their_table_and_flight_times(notebook):
     onsets = notebook["onsets"]
     page = _display(onsets)
-    assert "16 impacts from 1.0896 s to 2.9303 s" in page.text
+    assert "16 impacts from 1.0895 s to 2.9303 s" in page.text
     shown = [float(n["value"]) for n in page.numbers]
     assert all(any(v == t for v in shown) for t in onsets.time_s)
     assert repr(onsets).startswith("<OnsetTable of ")
