@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
+from scipy import optimize, special
 
 from drumroll.errors import OnsetsOutsidePriors
 from drumroll.inference.convergence import diagnose, integrated_time
@@ -102,12 +102,22 @@ class Chain:
 
 def initial_ball(log_posterior: LogPosterior, centre: NDArray, walkers: int,
                  rng: np.random.Generator) -> NDArray:
-    """Walkers in a small ball around ``centre``, each at a finite posterior."""
+    """Walkers in a small ball around ``centre``, each inside the posterior's typical set.
+
+    The ball's width starts at 1e-4 of each prior's spread, which is small only where the
+    prior is not much wider than the posterior: with t_B ~ U(0.01, 20) s it put walkers tens
+    of posterior sds out (80 nats below the mode), and some were still walking in after a
+    burn-in of 3 τ, their draws kept (PSIS-LOO then flagged 12 of 15 onsets of table2_h50).
+    A walker is pulled halfway back to the centre while its log density lies further below
+    the centre's than a Gaussian posterior's would in 99.9 % of draws (χ²_ndim / 2)."""
     prior_spread = np.std(log_posterior.space.sample_prior(rng, 4000), axis=0)
     width = np.where(prior_spread > 0, 1e-4 * prior_spread, 1e-8)
     ball = centre + width * rng.standard_normal((walkers, centre.size))
+    # χ²_ndim's 0.999 quantile over 2 (scipy.special: scipy.stats stays unimported at start-up).
+    floor = float(log_posterior(centre[None])[0]) - special.gammaincinv(0.5 * centre.size, 0.999)
     for _ in range(100):
-        bad = ~np.isfinite(log_posterior(ball))
+        density = log_posterior(ball)
+        bad = ~np.isfinite(density) | (density < floor)
         if not bad.any():
             return ball
         ball[bad] = centre + 0.5 * (ball[bad] - centre)
