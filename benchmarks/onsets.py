@@ -33,7 +33,8 @@ and the real ping-pong encoded as a phone, a camera or a messaging app would (AA
 resampled to 16 and 8 kHz, and through a phone's automatic gain control (alone and before AAC
 64 kb/s), each scored side by side with the lossless original by the corpus's rules (F1, MAD
 against the truth, first impact found) and onset by onset against the original's onsets: the
-share found within 1 ms, the median shift, the decoded audio's offset against the original
+share found within 1 ms (of all the original's onsets, and of those that time an audible true
+impact: :func:`audible_onsets`), the median shift, the decoded audio's offset against the original
 (cross-correlation: the priming taken off, or not) and the spread of the shifts (1.4826 x MAD,
 an sd), which is the timing floor ``drumroll.audio.timing`` adds to ``sigma_s``.
 ``--phone-condition`` runs only the conditions whose label holds the text (``'AAC 128'``);
@@ -597,11 +598,12 @@ def onset_shifts(reference: dict, coded: dict, pair_s: float = 0.003
     total = found = 0
     raw, centred = [], []
     for name, ref in reference.items():
-        total += len(ref)
+        ref = np.asarray(getattr(ref, "time_s", ref), dtype=float)
+        total += ref.size
         table = coded.get(name)
-        if table is None or len(table) == 0 or len(ref) == 0:
+        if table is None or len(table) == 0 or ref.size == 0:
             continue
-        s = -nearest_errors(ref.time_s, table.time_s)[1]  # coded minus reference
+        s = -nearest_errors(ref, table.time_s)[1]  # coded minus reference
         found += int(np.count_nonzero(np.abs(s) <= 1e-3))
         s = s[np.abs(s) <= pair_s]
         if s.size:
@@ -611,6 +613,29 @@ def onset_shifts(reference: dict, coded: dict, pair_s: float = 0.003
         return np.concatenate(parts) if parts else np.zeros(0)
 
     return total, found, joined(raw), joined(centred)
+
+
+def audible_onsets(reference: dict, folder: Path, tol: float = 0.002) -> dict:
+    """Of each recording's onsets, those that time an audible true impact: within ``tol``
+    of an impact of ``<name>.truth.json`` with ``local_snr_db >= 0`` (the impacts F1
+    counts), the recording's constant latency taken out as :func:`score_folder` does. An
+    onset that matches no impact (a false positive, an inaudible bounce, a bounce after the
+    last one an incomplete truth references) is no measure of what a codec does to timing.
+    Returns ``name -> times (s)``."""
+    out = {}
+    for name, table in reference.items():
+        truth = json.loads((folder / f"{name}.truth.json").read_text())
+        t = np.asarray(truth["onset_times_s"], dtype=float)
+        audible = np.asarray(truth.get("local_snr_db", np.zeros(t.size))) >= 0
+        det = table.time_s
+        if det.size == 0 or t.size == 0:
+            out[name] = np.zeros(0)
+            continue
+        lag = nearest_errors(det, t)[1]
+        lag = lag[np.abs(lag) <= 0.025]
+        near, err = nearest_errors(det - (float(np.median(lag)) if lag.size else 0.0), t)
+        out[name] = det[(np.abs(err) <= tol) & audible[near]]
+    return out
 
 
 def traced_detect(path: Path):
@@ -693,8 +718,8 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
             row = score_folder(folder, pattern, tables=reference, verbose=False)
             if row is None:
                 continue
-            rows = {"lossless original": dict(row, found=1.0, shift_ms=0.0, offset_ms=0.0,
-                                              sd_ms=0.0)}
+            rows = {"lossless original": dict(row, found=1.0, found_impacts=1.0,
+                                              shift_ms=0.0, offset_ms=0.0, sd_ms=0.0)}
             for condition, (kind, arg) in PHONE_CONDITIONS.items():
                 if conditions and not any(c.lower() in condition.lower() for c in conditions):
                     continue
@@ -721,9 +746,12 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                             if coded and original:
                                 list_misses(condition, name, original[0], coded[0])
                 total, found, raw, centred = onset_shifts(reference, tables)
+                impacts, found_impacts = onset_shifts(audible_onsets(reference, folder),
+                                                      tables)[:2]
                 pooled.setdefault(condition, []).append((total, found, centred))
                 sd = 1.4826 * float(np.median(np.abs(centred))) if centred.size else np.nan
                 rows[condition] = dict(scored, found=found / max(total, 1),
+                                       found_impacts=found_impacts / max(impacts, 1),
                                        shift_ms=1e3 * float(np.median(raw)) if raw.size
                                        else np.nan,
                                        offset_ms=float(np.median(np.abs(offsets))),
@@ -731,17 +759,17 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                 print(f"  {condition:30s} done", flush=True)
             out[label] = rows
     print("\nphone recordings side by side with their lossless originals (F1 at +-2 ms and MAD "
-          "against the truth; then each onset against the original's: found within 1 ms, "
-          "median shift, |offset| of the decoded audio by cross-correlation, spread of the "
+          "against the truth; then each onset against the original's: found within 1 ms, of "
+          "all of them and of those that time an audible true impact, median shift, |offset| of the decoded audio by cross-correlation, spread of the "
           "shifts as an sd = 1.4826 MAD)")
     print(f"  {'recordings':26s} {'condition':30s} {'F1':>6s} {'MAD ms':>7s} {'first':>6s} "
-          f"{'found':>6s} {'shift ms':>9s} {'offset ms':>9s} {'sd ms':>6s}")
+          f"{'found':>6s} {'impacts':>7s} {'shift ms':>9s} {'offset ms':>9s} {'sd ms':>6s}")
     for label, rows in out.items():
         for condition, r in rows.items():
             print(f"  {label:26s} {condition:30s} {r.get('f1', np.nan):6.3f} "
                   f"{r.get('mad_ms', np.nan):7.3f} {r.get('first', 0):>2d}/{r.get('n', 0):<3d} "
-                  f"{r['found']:6.3f} {r['shift_ms']:9.3f} {r['offset_ms']:9.4f} "
-                  f"{r['sd_ms']:6.3f}")
+                  f"{r['found']:6.3f} {r['found_impacts']:7.3f} {r['shift_ms']:9.3f} "
+                  f"{r['offset_ms']:9.4f} {r['sd_ms']:6.3f}")
     print("\ntiming floors, pooled over every source (sd = 1.4826 MAD of the shifts, less each "
           "recording's median; drumroll.audio.timing holds them)")
     for condition, parts in pooled.items():
