@@ -760,7 +760,8 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
             out[label] = rows
     print("\nphone recordings side by side with their lossless originals (F1 at +-2 ms and MAD "
           "against the truth; then each onset against the original's: found within 1 ms, of "
-          "all of them and of those that time an audible true impact, median shift, |offset| of the decoded audio by cross-correlation, spread of the "
+          "all of them and of those that time an audible true impact, median shift, "
+          "|offset| of the decoded audio by cross-correlation, spread of the "
           "shifts as an sd = 1.4826 MAD)")
     print(f"  {'recordings':26s} {'condition':30s} {'F1':>6s} {'MAD ms':>7s} {'first':>6s} "
           f"{'found':>6s} {'impacts':>7s} {'shift ms':>9s} {'offset ms':>9s} {'sd ms':>6s}")
