@@ -73,6 +73,14 @@ def in_tree(path: Path, src: Path) -> Path:
     return theirs if theirs.exists() else path
 
 
+def _shown(path: Path) -> str:
+    """``path`` relative to the checkout when it lies inside it (a user's config may not)."""
+    try:
+        return str(path.relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
 def run_once(src: Path, source: Path, config: Path) -> dict:
     """One run of the main command with the package at ``src``: wall time, the stages the
     progress lines and ``summary.json`` give, and α's summary."""
@@ -106,8 +114,8 @@ def main_command(source: Path, config: Path, repeats: int, against: str) -> None
         for _ in range(repeats):
             for label, src in trees.items():
                 runs[label].append(run_once(src, source, config))
-    print(f"main command: estimate {source.relative_to(ROOT)} --prior "
-          f"{config.relative_to(ROOT)}, {repeats} runs each, alternating, {os.cpu_count()} "
+    print(f"main command: estimate {_shown(source)} --prior "
+          f"{_shown(config)}, {repeats} runs each, alternating, {os.cpu_count()} "
           "cores")
     medians = {label: statistics.median(r["wall"] for r in rs) for label, rs in runs.items()}
     for label, rs in runs.items():
