@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll.inference.likelihood import OnsetData
-from drumroll.inference.space import ParameterSpace
+from drumroll.inference.space import SCATTER, ParameterSpace
 from drumroll.physics.release import swing
 
 
@@ -46,7 +46,7 @@ class SamplerCoordinates:
 
     def __post_init__(self) -> None:
         names = self.space.names
-        logs = tuple(names.index(n) for n in ("jitter", "t_b") if n in names)
+        logs = tuple(names.index(n) for n in ("jitter", "t_b", SCATTER) if n in names)
         height = (names.index("height") if "height" in names
                   and self.space.forward.needs_stick else None)
         t0 = names.index("t0") if "t0" in names and self.data is not None else None
