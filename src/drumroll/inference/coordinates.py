@@ -21,7 +21,9 @@ class SamplerCoordinates:
     them is curvature and scale that changes across the posterior. Three maps remove the worst
     of it, each column depending only on columns mapped before it:
 
-    * the scale parameters ``jitter`` and ``t_b`` → their logarithms (∂x/∂z = x);
+    * the scale parameters ``jitter``, ``t_b`` and the restitution's scatter → their
+      logarithms (∂x/∂z = x); the scatter's posterior piles against s = 0 under a prior that
+      allows none, where moves in s itself step below 0 and are refused;
     * ``height`` → q = ω_C/γ of the model's own linearised kinematics,
       q² = (ω0² + 2γ(θ_C − θ0)) / γ², with θ_C = asin(h / (L − d)) (pendulum) or
       h / (L − d) (small-angle). The data pin down t_B ≈ 2q, which in (d, h) is a curved ridge
