@@ -26,13 +26,13 @@ from drumroll.audio.io import AudioInfo
 #: ============================  ========  =======  ===================
 #: condition                     MAD (ms)  sd (ms)  moved > 1 ms / lost
 #: ============================  ========  =======  ===================
-#: AAC 128 kb/s .m4a             0.068     0.101    0.087
-#: AAC 64 kb/s .m4a              0.181     0.269    0.282
-#: Opus 64 kb/s .webm            0.104     0.154    0.107
-#: Opus 32 kb/s .webm            0.308     0.456    0.258
-#: MP3 128 kb/s                  0.102     0.151    0.095
-#: Vorbis q0.5 .ogg (110 kb/s)   0.181     0.269    0.194
-#: AMR-NB 12.2 kb/s, 8 kHz .3gp  0.255     0.378    0.750
+#: AAC 128 kb/s .m4a             0.068     0.101    0.079
+#: AAC 64 kb/s .m4a              0.227     0.336    0.290
+#: Opus 64 kb/s .webm            0.101     0.150    0.099
+#: Opus 32 kb/s .webm            0.312     0.462    0.282
+#: MP3 128 kb/s                  0.091     0.134    0.091
+#: Vorbis q0.5 .ogg (110 kb/s)   0.136     0.202    0.183
+#: AMR-NB 12.2 kb/s, 8 kHz .3gp  0.247     0.366    0.694
 #: ============================  ========  =======  ===================
 #:
 #: MP3 and Vorbis below 96 kb/s were not measured: they get the low-rate rows of AAC and Opus,
@@ -44,16 +44,16 @@ from drumroll.audio.io import AudioInfo
 #: pre-echo out): the warning states it, and ``[likelihood] noise = "student-t"`` is made
 #: for it.
 CODEC_FLOORS: tuple[tuple[str, int, float, float], ...] = (
-    ("aac", 96_000, 0.11e-3, 0.09),
-    ("aac", 0, 0.27e-3, 0.28),
-    ("opus", 48_000, 0.16e-3, 0.11),
-    ("opus", 0, 0.46e-3, 0.26),
-    ("mp3", 96_000, 0.16e-3, 0.10),
-    ("mp3", 0, 0.46e-3, 0.28),
-    ("vorbis", 96_000, 0.27e-3, 0.19),
-    ("vorbis", 0, 0.46e-3, 0.28),
-    ("amrnb", 0, 0.38e-3, 0.75),
-    ("amrwb", 0, 0.38e-3, 0.75),
+    ("aac", 96_000, 0.11e-3, 0.08),
+    ("aac", 0, 0.34e-3, 0.29),
+    ("opus", 48_000, 0.15e-3, 0.10),
+    ("opus", 0, 0.47e-3, 0.28),
+    ("mp3", 96_000, 0.14e-3, 0.09),
+    ("mp3", 0, 0.47e-3, 0.29),
+    ("vorbis", 96_000, 0.21e-3, 0.18),
+    ("vorbis", 0, 0.47e-3, 0.29),
+    ("amrnb", 0, 0.37e-3, 0.69),
+    ("amrwb", 0, 0.37e-3, 0.69),
 )
 
 #: An unmeasured lossy codec (AC-3, WMA, GSM, ...) is given the largest floor of the
@@ -64,10 +64,10 @@ _UNMEASURED = max((row for row in CODEC_FLOORS if row[0] not in ("amrnb", "amrwb
 #: Timing floors of low sample rates, lossless: ``(highest rate in Hz the row holds for, sd
 #: in seconds, share moved by more than 1 ms or lost)``, the first row that matches wins
 #: (same benchmark, the recordings resampled and written as 16-bit WAV: at 16 kHz MAD
-#: 0.084 ms, sd 0.125 ms, 0.107 moved; at 8 kHz MAD 0.151 ms, sd 0.223 ms, 0.194 moved).
+#: 0.092 ms, sd 0.136 ms, 0.103 moved; at 8 kHz MAD 0.151 ms, sd 0.224 ms, 0.194 moved).
 RATE_FLOORS: tuple[tuple[int, float, float], ...] = (
     (8_000, 0.23e-3, 0.19),
-    (16_000, 0.13e-3, 0.11),
+    (16_000, 0.14e-3, 0.10),
 )
 
 #: How far ahead of an impact each lossy codec may spread the quantisation noise of the
