@@ -90,6 +90,22 @@ def nearest_errors(det: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, np.n
     return near, d[np.arange(det.size), near]
 
 
+def read_truth(path: Path) -> tuple[dict, np.ndarray, np.ndarray]:
+    """A ``<name>.truth.json``: its contents, the impact times (s) and which impacts are
+    audible (``local_snr_db >= 0``: the impacts F1 counts)."""
+    truth = json.loads(path.read_text())
+    t = np.asarray(truth["onset_times_s"], dtype=float)
+    return truth, t, np.asarray(truth.get("local_snr_db", np.zeros(t.size))) >= 0
+
+
+def constant_latency(det: np.ndarray, truth: np.ndarray) -> float:
+    """The median difference (s) of detections from their nearest impacts within 25 ms: a
+    constant latency, which changes no flight (0 when none is that close)."""
+    lag = nearest_errors(det, truth)[1]
+    lag = lag[np.abs(lag) <= 0.025]
+    return float(np.median(lag)) if lag.size else 0.0
+
+
 def evaluate(det: np.ndarray, truth: np.ndarray, audible: np.ndarray, tol: float = 0.002):
     """F1, recall, MAD (s) over the matched impacts F1 counts, onsets before the first impact
     and after the last, and MAD (s) over every matched detection (module docstring)."""
@@ -443,9 +459,7 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002, *,
                  if not p.name.endswith((".json", ".txt", ".toml", ".md", ".LICENSE"))]
         if not audio:
             continue
-        truth = json.loads(truth_file.read_text())
-        t = np.asarray(truth["onset_times_s"], dtype=float)
-        counted = np.asarray(truth.get("local_snr_db", np.zeros(t.size))) >= 0
+        truth, t, counted = read_truth(truth_file)
         try:
             table = detect(audio[0]) if against is None else against.detect_file(audio[0])
             if table is None:
@@ -455,10 +469,7 @@ def score_folder(folder: Path, pattern: str = "*", tol: float = 0.002, *,
                 tables[name] = table
         except AudioError:
             det, bounce, sigma = np.zeros(0), np.zeros(0, dtype=int), np.zeros(0)
-        lag = nearest_errors(det, t)[1]
-        lag = lag[np.abs(lag) <= 0.025]
-        offset = float(np.median(lag)) if lag.size else 0.0
-        det = det - offset
+        det = det - constant_latency(det, t)
         if not truth.get("complete", True):
             keep = det <= t[-1] + 0.3 * (t[-1] - t[-2])
             det, bounce, sigma = det[keep], bounce[keep], sigma[keep]
@@ -592,13 +603,12 @@ def decoded_offset_ms(original: Path, coded: Path) -> float:
 
 def onset_shifts(reference: dict, coded: dict, pair_s: float = 0.003
                  ) -> tuple[int, int, np.ndarray, np.ndarray]:
-    """Each reference onset against the nearest coded onset of the same recording: how many
-    reference onsets, how many found within 1 ms, the shifts within ``pair_s`` (s) and the
-    same less their recording's median (the spread a codec adds)."""
+    """Each reference onset time (s, by recording) against the nearest coded onset of the same
+    recording: how many reference onsets, how many found within 1 ms, the shifts within
+    ``pair_s`` (s) and the same less their recording's median (the spread a codec adds)."""
     total = found = 0
     raw, centred = [], []
     for name, ref in reference.items():
-        ref = np.asarray(getattr(ref, "time_s", ref), dtype=float)
         total += ref.size
         table = coded.get(name)
         if table is None or len(table) == 0 or ref.size == 0:
@@ -624,16 +634,12 @@ def audible_onsets(reference: dict, folder: Path, tol: float = 0.002) -> dict:
     Returns ``name -> times (s)``."""
     out = {}
     for name, table in reference.items():
-        truth = json.loads((folder / f"{name}.truth.json").read_text())
-        t = np.asarray(truth["onset_times_s"], dtype=float)
-        audible = np.asarray(truth.get("local_snr_db", np.zeros(t.size))) >= 0
+        _, t, audible = read_truth(folder / f"{name}.truth.json")
         det = table.time_s
         if det.size == 0 or t.size == 0:
             out[name] = np.zeros(0)
             continue
-        lag = nearest_errors(det, t)[1]
-        lag = lag[np.abs(lag) <= 0.025]
-        near, err = nearest_errors(det - (float(np.median(lag)) if lag.size else 0.0), t)
+        near, err = nearest_errors(det - constant_latency(det, t), t)
         out[name] = det[(np.abs(err) <= tol) & audible[near]]
     return out
 
@@ -745,7 +751,8 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                                         in (".wav", ".flac", ".ogg", ".mp3")]
                             if coded and original:
                                 list_misses(condition, name, original[0], coded[0])
-                total, found, raw, centred = onset_shifts(reference, tables)
+                total, found, raw, centred = onset_shifts(
+                    {name: table.time_s for name, table in reference.items()}, tables)
                 impacts, found_impacts = onset_shifts(audible_onsets(reference, folder),
                                                       tables)[:2]
                 pooled.setdefault(condition, []).append((total, found, centred))
