@@ -80,7 +80,10 @@ def _pareto_quantiles(probs: NDArray, k: float, sigma: float) -> NDArray:
         return np.full_like(probs, np.nan)
     if abs(k) < np.finfo(float).eps:
         return -sigma * np.log1p(-probs)
-    return sigma * np.expm1(-k * np.log1p(-probs)) / k
+    # A very heavy tail's top quantiles overflow to inf: harmless, the caller caps them at the
+    # largest raw ratio (as ArviZ's psislw does).
+    with np.errstate(over="ignore"):
+        return sigma * np.expm1(-k * np.log1p(-probs)) / k
 
 
 def smoothed_log_weights(log_ratios: NDArray, r_eff: float = 1.0) -> tuple[NDArray, float]:

@@ -295,6 +295,13 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     target = SamplerTarget(log_posterior, coordinates)
     mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
     start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
+    from drumroll.inference.ensemble import emcee  # emcee without scipy.stats
+
+    if not emcee.ensemble.walkers_independent(start):  # emcee's own test, run_mcmc's first
+        # The ball fell onto its centre: no walker a hair from the best point keeps a density
+        # a Gaussian posterior would give it, which onsets a model can fit never do (times in
+        # the wrong unit, a jitter prior that stops short of the roll's misfit).
+        raise OnsetsOutsidePriors(log_posterior.space.model)
     sampler = ensemble_sampler(target, walkers, ndim,
                                int(np.random.SeedSequence([settings.seed, 1]).generate_state(1)[0]))
     converged, checks, steps, state = False, 0, 0, start
