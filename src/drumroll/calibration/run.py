@@ -47,7 +47,7 @@ from drumroll.calibration.results import (
 )
 from drumroll.calibration.roll import MAX_ATTEMPTS, RollSimulator, SimulatedRoll
 from drumroll.config import Config, load_config, parse_config
-from drumroll.errors import DrumrollError
+from drumroll.errors import AudioError, DrumrollError
 from drumroll.inference.calibration import (
     calibrate_quantity,
     central_interval_covers,
@@ -192,6 +192,9 @@ def run_draw(raw: dict[str, Any], path: str | None, index: int, options: dict[st
                 heard = recorder.record(roll, sound_rng)
             except TooSlow:
                 rejected[EXTRACTOR_TOO_SLOW] += 1
+                continue
+            except AudioError:  # the extractor found no roll of 4 onsets: fewer heard
+                rejected[TOO_FEW_HEARD] += 1
                 continue
             if heard.hearing.n_heard < MIN_ONSETS:
                 rejected[TOO_FEW_HEARD] += 1
