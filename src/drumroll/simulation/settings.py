@@ -28,8 +28,13 @@ Example::
     snr_db = 30                   # false: no background noise
     hum_hz = 50                   # false (the default): no hum
 
-Recorded hits instead of the synthetic drum (then ``[simulate.drum]`` does not apply, nor
-the synthetic ``spurious`` events: use ``extra_hits``), and a measured room instead of the
+Every impact holds the stick on the head for the contact time of ``[simulate.drum]``
+(``contact_time_s`` at ``reference_speed_m_s``, scaled as speed^``contact_exponent``, Hertz's
+−1/5): the synthetic drum's contact pulse lasts that long, and the next flight starts when it
+ends, so impact k comes Σ_{j<k} τ_j later than the flights alone put it (the truth's
+``physics.contact_ms`` is the first impact's τ). Recorded hits instead of the synthetic drum
+(then ``[simulate.drum]`` does not apply but for that contact law, nor the synthetic
+``spurious`` events: use ``extra_hits``), and a measured room instead of the
 synthetic one (a string instead of the ``[simulate.room]`` table)::
 
     [simulate]
@@ -69,7 +74,7 @@ from drumroll.config.loader import register_section
 from drumroll.config.validate import boolean, check_keys, join, number, string, table, type_name
 from drumroll.errors import AudioError, ConfigError, DrumrollWarning
 from drumroll.physics.models import GEOMETRIC_MODELS
-from drumroll.quantities import DERIVED, QUANTITIES
+from drumroll.quantities import BY_NAME, DERIVED, QUANTITIES
 from drumroll.simulation.disturbances import Disturbances
 from drumroll.simulation.room import Room
 from drumroll.simulation.sounds import DrumSound
@@ -512,9 +517,11 @@ def true_impacts(settings: SimulateSettings, stick: Any, gravity: float,
     Returns
     -------
     dict
-        ``model_times_s`` (from the first impact, exact physics), ``times_s`` (with the
-        jitter, re-sorted), ``speeds_m_s`` and the physics summary ``physics`` (t_c, t_b,
-        θ_C, ω_C, contact tip speed).
+        ``model_times_s`` (from the first impact, exact physics, each impact's contact
+        time, :meth:`~drumroll.simulation.sounds.DrumSound.contact_times`, delaying the
+        flights after it), ``times_s`` (with the jitter, re-sorted), ``speeds_m_s`` and the
+        physics summary ``physics`` (t_c, t_b, θ_C, ω_C, contact tip speed, the first
+        impact's contact time ``contact_ms``).
 
     Raises
     ------
@@ -542,12 +549,16 @@ def true_impacts(settings: SimulateSettings, stick: Any, gravity: float,
                           f"tip speed fell below min_tip_speed_m_s = {settings.min_tip_speed:g}",
                           DrumrollWarning, stacklevel=2)
         times, speeds = times[:keep], speeds[:keep]
+    # The onset is the start of contact and the next flight starts at its end (physics.md):
+    # each impact comes the contacts before it later than the flights alone put it.
+    contact = settings.drum.contact_times(speeds)
+    times = times + np.concatenate(([0.0], np.cumsum(contact[:-1])))
     jittered = np.sort(times + settings.jitter * rng.standard_normal(len(times)))
-    return {
-        "model_times_s": times, "times_s": jittered, "speeds_m_s": speeds,
-        "physics": {key: q.to_user(float(np.ravel(getattr(bounces, q.bounces))[0]))
-                    for key, q in DERIVED.items()},
-    }
+    physics = {key: q.to_user(float(np.ravel(getattr(bounces, q.bounces))[0]))
+               for key, q in DERIVED.items()}
+    physics[BY_NAME["contact"].key] = BY_NAME["contact"].to_user(float(contact[0]))
+    return {"model_times_s": times, "times_s": jittered, "speeds_m_s": speeds,
+            "physics": physics}
 
 
 register_section("simulate", parse_simulate)

@@ -142,6 +142,15 @@ class DrumSound:
     stick_decay_s: float = 0.015
     hit_variation_db: float = 0.7
 
+    def contact_times(self, speeds: np.ndarray) -> np.ndarray:
+        """How long each impact at tip ``speeds`` (m/s) holds the stick on the head (s): the
+        half-sine force's duration, ``contact_time_s`` at the reference speed scaled as
+        ``speed ** contact_exponent`` (Hertz), kept within 0.1-10 ms. The sound's contact
+        pulse lasts this long, and the next flight starts when it ends
+        (:func:`~drumroll.simulation.settings.true_impacts`)."""
+        rel = np.asarray(speeds, dtype=float) / self.reference_speed_m_s
+        return np.clip(self.contact_time_s * rel ** self.contact_exponent, 0.1e-3, 10e-3)
+
     def __post_init__(self) -> None:
         positive = ("fundamental_hz", "decay_s", "contact_time_s", "reference_speed_m_s",
                     "snare_decay_s", "click_decay_s", "stick_decay_s")
@@ -255,8 +264,7 @@ class ImpactSynth:
             snare_gate = v**2 / (v**2 + d.snare_threshold_m_s**2)
             out.append(Voice(
                 speed=float(v),
-                contact_s=float(np.clip(d.contact_time_s * rel ** d.contact_exponent,
-                                        0.1e-3, 10e-3)),
+                contact_s=float(d.contact_times(v)),
                 mode_amps=per_mode[self._mode_of] * self._mode_weight,
                 stick_amp=d.click_level * loud * bright_hf * gains[1],
                 click_amp=d.click_level * loud * bright_hf * gains[2],
