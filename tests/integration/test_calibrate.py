@@ -79,7 +79,7 @@ def test_the_result_holds_every_number_and_reads_back(quick_result, tmp_path):
     result = quick_result
     assert isinstance(result, CalibrationResult)
     assert result.settings.n == 4 and len(result.draws) == 4
-    assert result.onsets.parameters == ("alpha", "t_b", "jitter_ms", "t0_s")
+    assert result.onsets.parameters == ("alpha", "t_b", "jitter_ms", "contact_ms", "t0_s")
     for draw in result.draws:
         assert set(draw.onsets.rank) >= set(result.onsets.parameters)
         assert all(0 <= r <= result.settings.rank_draws for r in draw.onsets.rank.values())
@@ -193,7 +193,7 @@ def test_the_exact_pendulum_with_the_paper_s_priors_is_calibrated(tmp_path, caps
     assert code == 0
     result = CalibrationResult.from_json(json.loads((out / "calibration.json").read_text()))
     assert result.onsets.parameters == ("alpha", "pivot_mm", "height_mm", "stick_length_mm",
-                                        "stick_tip_mm", "jitter_ms", "t0_s")
+                                        "stick_tip_mm", "jitter_ms", "contact_ms", "t0_s")
     for key in result.onsets.parameters:
         q = result.onsets.quantities[key]
         assert q.coverage_90.inside, (key, q.coverage_90)

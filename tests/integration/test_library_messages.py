@@ -99,8 +99,9 @@ def test_a_truncated_mp3_is_said_once_in_words(tmp_path, mp3):
     proc = drumroll("onsets", cut)
     assert proc.returncode == 0
     lines = stderr_lines(proc)
+    declared = sf.info(DATA / "table2_h80.flac").duration  # the whole roll the MP3 holds
     assert lines[0].startswith(f"drumroll: warning: {cut}: the file is cut short: its header "
-                               "declares 5.04 s of audio")
+                               f"declares {declared:.2f} s of audio")
     assert all(line.startswith("drumroll: ") for line in lines)
 
 
@@ -109,7 +110,9 @@ def test_damaged_mp3_frames_are_one_warning(tmp_path, mp3):
     # "[src/libmpg123/layer3.c:…] error: …" lines.
     damaged = tmp_path / "damaged.mp3"
     data = bytearray(mp3.read_bytes())
-    rng = np.random.default_rng(1)
+    # bytes changed at random past the header (a draw whose damage the decoder meets and
+    # reports: which bytes it notices depends on the recording's frames)
+    rng = np.random.default_rng(2)
     for at in rng.integers(2000, len(data), 200):
         data[at] = int(rng.integers(256))
     damaged.write_bytes(bytes(data))

@@ -137,7 +137,8 @@ def test_joint_posterior_is_the_sum_of_the_runs(joint_folder):
         times = np.loadtxt(run.source)
         parts.append(LogPosterior.build(run.config, "pendulum", OnsetData.from_arrays(times)))
     joint = JointPosterior(parts, ["a", "b"], ("alpha",))
-    assert joint.space.names[0] == "shared:alpha" and joint.space.ndim == 7
+    # α once, and each run's pivot, height, jitter and contact time (sampled by default)
+    assert joint.space.names[0] == "shared:alpha" and joint.space.ndim == 9
     z = joint.space.sample_prior(np.random.default_rng(0), 50)
     xa, xb = joint.run_parameters(z)
     np.testing.assert_array_equal(xa[:, 0], xb[:, 0])  # one alpha

@@ -73,7 +73,8 @@ def test_importance_evidence_error_is_honest():
 FLAT = {"model": "powerlaw",
         "priors": {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
                    "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0},
-                   "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10}}}
+                   "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10},
+                   "contact_ms": 0}}  # three dimensions to integrate: no contact time
 
 
 @pytest.fixture(scope="module")

@@ -24,9 +24,9 @@ import pytest
 from scipy import stats
 
 from drumroll.config import parse_config
-from drumroll.distributions import Fixed, HalfNormal, Normal
+from drumroll.distributions import Fixed, HalfNormal, Normal, Uniform
 from drumroll.errors import ConfigError
-from drumroll.inference.space import DEFAULT_JITTER_PRIOR, ParameterSpace
+from drumroll.inference.space import DEFAULT_CONTACT_PRIOR, DEFAULT_JITTER_PRIOR, ParameterSpace
 from drumroll.physics import StickGeometry, bounce_sequence
 from drumroll.physics.bounces import RIM_FIRST
 from drumroll.physics.models import MODELS
@@ -37,10 +37,11 @@ STICK = ("stick_length", "stick_tip", "stick_radius")
 
 
 def _expected_names(config, model: str) -> tuple[str, ...]:
-    """The column order written out: physics, jitter, stick, each only if not fixed."""
+    """The column order written out: physics, jitter, contact time (sampled by default),
+    stick, each only if not fixed."""
     forward = MODELS[model]
-    order = [*forward.parameters, "jitter", *(STICK if forward.needs_stick else ())]
-    every = {**config.priors}
+    order = [*forward.parameters, "jitter", "contact", *(STICK if forward.needs_stick else ())]
+    every = {"contact": DEFAULT_CONTACT_PRIOR, **config.priors}
     if forward.needs_stick:
         every.update(stick_length=config.stick.length, stick_tip=config.stick.tip,
                      stick_radius=config.stick.radius)
@@ -75,7 +76,9 @@ def test_columns_are_the_sampled_parameters_in_order(model, variant):
 def test_table1_pendulum_by_hand():
     """The paper's set-up: release fixed at rest, the radius fixed at 7.5 mm."""
     space = ParameterSpace.build(_config("table1"), "pendulum")
-    assert space.names == ("alpha", "pivot", "height", "jitter", "stick_length", "stick_tip")
+    assert space.names == ("alpha", "pivot", "height", "jitter", "contact", "stick_length",
+                           "stick_tip")
+    assert space.priors["contact"] == Uniform(low=0.0, high=3e-3)  # the default: 0-3 ms
     assert space.priors["stick_radius"] == Fixed(0.0075)
     assert space.priors["release_speed"] == Fixed(0.0)
     assert "t_b" not in space.priors  # the pendulum derives t_B
@@ -89,10 +92,11 @@ def test_default_jitter_and_extra_priors():
     space = ParameterSpace.build(config, "powerlaw",
                                  {"t0": Normal(mu=1.0, sigma=0.1), "nu": nu, "skew": Fixed(2.0)})
     assert space.priors["jitter"] is DEFAULT_JITTER_PRIOR
-    assert space.names == ("alpha", "jitter", "t0", "nu")  # t_b fixed, extras last
+    assert space.priors["contact"] is DEFAULT_CONTACT_PRIOR
+    assert space.names == ("alpha", "jitter", "contact", "t0", "nu")  # t_b fixed, extras last
     assert space.extra == ("t0", "nu")
-    x = np.array([[0.8, 1e-3, 1.05, 3.0]])
-    want = (math.log(2.0) + stats.loguniform(1e-5, 1e-2).logpdf(1e-3)
+    x = np.array([[0.8, 1e-3, 1e-3, 1.05, 3.0]])
+    want = (math.log(2.0) + stats.loguniform(1e-5, 1e-2).logpdf(1e-3) + math.log(1 / 3e-3)
             + stats.norm(1.0, 0.1).logpdf(1.05)
             + stats.halfnorm(scale=10).logpdf(3.0) - math.log(stats.halfnorm(scale=10).sf(1.0)))
     assert space.log_prior(x)[0] == pytest.approx(want, rel=1e-12)
@@ -105,7 +109,8 @@ def test_log_prior_of_the_paper_set_up_equals_scipy():
     mass to speak of)."""
     space = ParameterSpace.build(_config("table1"), "pendulum")
     refs = [stats.uniform(0.5, 0.5), stats.norm(0.131, 0.002), stats.norm(0.080, 0.003),
-            stats.loguniform(1e-5, 1e-2), stats.norm(0.348, 0.001), stats.norm(0.060, 0.001)]
+            stats.loguniform(1e-5, 1e-2), stats.uniform(0.0, 3e-3), stats.norm(0.348, 0.001),
+            stats.norm(0.060, 0.001)]
     x = space.sample_prior(np.random.default_rng(1), 200)
     want = sum(ref.logpdf(x[:, i]) for i, ref in enumerate(refs))
     np.testing.assert_allclose(space.log_prior(x), want, rtol=1e-12)
@@ -198,16 +203,19 @@ def test_impacts_and_bounces_equal_the_forward_model(model, variant):
     impacts, valid = space.impacts(x, 12)
     assert impacts.shape == (200, 13)
     np.testing.assert_array_equal(valid, direct.valid)
-    np.testing.assert_allclose(impacts[valid], direct.impacts[valid], rtol=1e-12, atol=1e-15)
+    # the sampler's impacts carry the contact time (sampled by default, the constant law):
+    # impact m comes m τ_c after the flights alone put it
+    delayed = direct.impacts + space.value(x, "contact")[:, None] * np.arange(13)
+    np.testing.assert_allclose(impacts[valid], delayed[valid], rtol=1e-12, atol=1e-15)
     assert space.impacts_one(x[0], 12) is None
     good = int(np.flatnonzero(valid)[0])
-    np.testing.assert_allclose(space.impacts_one(x[good], 12), direct.impacts[good],
+    np.testing.assert_allclose(space.impacts_one(x[good], 12), delayed[good],
                                rtol=1e-12, atol=1e-15)
 
 
 def test_impacts_with_every_physical_parameter_fixed():
     """Only the jitter sampled: one sequence, repeated for every row."""
-    raw = {"model": "powerlaw", "priors": {"alpha": 0.9, "t_b": 0.25}}
+    raw = {"model": "powerlaw", "priors": {"alpha": 0.9, "t_b": 0.25, "contact_ms": 0}}
     space = ParameterSpace.build(parse_config(raw), "powerlaw")
     assert space.names == ("jitter",)
     impacts, valid = space.impacts(np.full((4, 1), 1e-3), 5)
