@@ -61,6 +61,20 @@ class SamplerCoordinates:
         """The column of T0's non-centred offset δ, when T0 is sampled (else None)."""
         return self._t0
 
+    def bounds(self) -> NDArray:
+        """The box of z the priors allow, shape ``(ndim, 2)``: each column's prior support
+        mapped as the column is (its logarithm for the scale parameters), unbounded for the
+        columns whose map depends on others (q, T0's offset δ). The start's climb keeps inside
+        it (:func:`~drumroll.inference.sampling.find_start`)."""
+        box = np.array([self.space.priors[name].support for name in self.space.names], float)
+        with np.errstate(divide="ignore"):
+            for i in self._logs:
+                box[i] = np.log(box[i])
+        for i in (self._height, self._t0):
+            if i is not None:
+                box[i] = (-np.inf, np.inf)
+        return box
+
     def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """γ, L − d, ω0 and θ0 per row (only the columns other than h are used; h is given
         a placeholder, since q, not h, is what the rows hold)."""
