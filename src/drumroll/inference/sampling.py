@@ -197,11 +197,11 @@ def _climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int
     """L-BFGS-B from ``start`` inside the priors' box (see :func:`find_start`): the point
     reached and its density.
 
-    The box matters: the density is −inf past a prior's edge, and a posterior that piles
-    against one (the contact time at 0, the jitter at its lowest) drew unbounded BFGS onto the
-    edge, where a central difference has no value on one side. A zero gradient there stopped
-    the climb hundreds of nats below the top (8 of 20 seeds on the ping-pong roll); within the
-    box the gradient is one-sided on a bound and projected, and the climb goes on along it."""
+    The box matters: the density is −inf past a prior's edge, and unbounded BFGS, on its way
+    up, ran onto such edges (the contact time at 0, the jitter at an end of its range), where
+    a central difference has no value on one side. A zero gradient there stopped the climb
+    hundreds of nats below the top (8 of 20 seeds on the ping-pong roll); within the box the
+    gradient is one-sided on a bound and projected, and the climb goes on along it."""
     ndim = start.size
     box = target.coordinates.bounds()
     point, value = start, -math.inf
