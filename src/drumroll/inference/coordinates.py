@@ -63,9 +63,9 @@ class SamplerCoordinates:
 
     def bounds(self) -> NDArray:
         """The box of z the priors allow, shape ``(ndim, 2)``: each column's prior support
-        mapped as the column is (its logarithm for the scale parameters), unbounded for the
-        columns whose map depends on others (q, T0's offset δ). The start's climb keeps inside
-        it (:func:`~drumroll.inference.sampling.find_start`)."""
+        mapped as the column is (its logarithm for the scale parameters), 1e-9 of its width
+        inside, unbounded for the columns whose map depends on others (q, T0's offset δ). The
+        start's climb keeps inside it (:func:`~drumroll.inference.sampling.find_start`)."""
         box = np.array([self.space.priors[name].support for name in self.space.names], float)
         with np.errstate(divide="ignore"):
             for i in self._logs:
@@ -73,7 +73,11 @@ class SamplerCoordinates:
         for i in (self._height, self._t0):
             if i is not None:
                 box[i] = (-np.inf, np.inf)
-        return box
+        # A hair inside: a point on a bound in z can map back (exp of a log) a rounding error
+        # outside the prior, where the density is −inf, and a walker started there has none.
+        width = np.where(np.isfinite(box[:, 1] - box[:, 0]), box[:, 1] - box[:, 0],
+                         np.maximum(np.abs(np.where(np.isfinite(box), box, 0.0)).max(axis=1), 1.0))
+        return box + 1e-9 * width[:, None] * np.array([1.0, -1.0])
 
     def _gamma_arm_speed(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """γ, L − d, ω0 and θ0 per row (only the columns other than h are used; h is given
