@@ -275,7 +275,8 @@ class Normal(Truncated):
     @staticmethod
     def density(x, mu, sigma):
         z = (x - mu) / sigma
-        return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI
+        with np.errstate(over="ignore"):  # z² past 1e308: a density of −inf, as it should be
+            return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI
 
     @staticmethod
     def cdf(x, mu, sigma):
@@ -309,7 +310,10 @@ class HalfNormal(Truncated):
     @staticmethod
     def density(x, sigma):
         z = x / sigma
-        return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI + math.log(2.0)
+        # A scale sampled in its logarithm reaches x ~ 1e200 on a long jump: z² overflows to
+        # a density of −inf, as it should be.
+        with np.errstate(over="ignore"):
+            return -0.5 * z * z - np.log(sigma) - _LOG_SQRT_2PI + math.log(2.0)
 
     @staticmethod
     def cdf(x, sigma):
