@@ -65,7 +65,12 @@ class SamplerCoordinates:
         """The box of z the priors allow, shape ``(ndim, 2)``: each column's prior support
         mapped as the column is (its logarithm for the scale parameters), 1e-9 of its width
         inside, unbounded for the columns whose map depends on others (q, T0's offset δ). The
-        start's climb keeps inside it (:func:`~drumroll.inference.sampling.find_start`)."""
+        start's climb keeps inside it (:func:`~drumroll.inference.sampling.find_start`).
+        A space whose columns are already sampler coordinates (a joint fit's,
+        :class:`~drumroll.table.joint.JointSpace`) gives its own box."""
+        own_box = getattr(self.space, "sampler_bounds", None)
+        if own_box is not None:
+            return own_box()
         box = np.array([self.space.priors[name].support for name in self.space.names], float)
         with np.errstate(divide="ignore"):
             for i in self._logs:

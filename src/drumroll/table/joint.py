@@ -54,6 +54,19 @@ class JointSpace:
     def ndim(self) -> int:
         return len(self.names)
 
+    def sampler_bounds(self) -> NDArray:
+        """The box the priors allow the joint vector, ``(ndim, 2)``: each run's
+        :meth:`SamplerCoordinates.bounds`, the shared columns the first run's (their priors
+        are the same in every run)."""
+        post = self.posterior
+        box = np.empty((self.ndim, 2))
+        for i, coords in enumerate(post.coordinates):
+            part = coords.bounds()
+            if i == 0:
+                box[:len(post.shared)] = part[post.shared_columns[0]]
+            box[post.own_slices[i]] = part[post.own_columns[i]]
+        return box
+
     def sample_prior(self, rng: np.random.Generator, size: int) -> NDArray:
         """``size`` joint prior draws (in the joint sampler coordinates)."""
         post = self.posterior
