@@ -181,8 +181,7 @@ def fit_joint(runs: RunsFile, rows: list[RunRow]) -> dict[str, Any]:
         label → the run's own fit), ``consistency`` (key → a χ² sentence), and the sampler's
         ``converged``, ``n_steps``, ``tau_max``.
     """
-    import arviz as az
-
+    from drumroll.inference.convergence import diagnose
     from drumroll.inference.inference_data import parameter_draws
     from drumroll.inference.likelihood import OnsetData
     from drumroll.inference.posterior import LogPosterior
@@ -211,8 +210,11 @@ def fit_joint(runs: RunsFile, rows: list[RunRow]) -> dict[str, Any]:
         column = parts[0].space.names.index(name)
         draws_si = per_run[0][:, column].reshape(walkers, draws)
         values = draws_si / PARAMETERS[key].to_si
-        out_shared[key] = {**_value_error(values), "r_hat": float(az.rhat(values)),
-                           "ess_bulk": float(az.ess(values, method="bulk"))}
+        # the R-hat and ESS the sampler stopped on (walkers in groups as chains), not
+        # ArviZ's with each walker a chain, which stays above 1.01 for a converged run
+        stats = diagnose({key: values})[key]
+        out_shared[key] = {**_value_error(values), "r_hat": stats["r_hat"],
+                           "ess_bulk": stats["ess_bulk"]}
     for run, part, x in zip(runs.runs, parts, per_run, strict=True):
         variables, _, _ = parameter_draws(part, x.reshape(walkers, draws, -1), rng)
         entry = {"fitted_t_b": _value_error(variables["t_b"].ravel())}
