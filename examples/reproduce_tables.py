@@ -9,6 +9,8 @@ bundled simulated recordings in ``data/`` and writes to ``examples/output/``:
 * ``figure5.png``: bounce-duration series, one panel per set of runs (pivot | height |
   drumhead tension), each with its posterior median and 90 % band;
 * ``truth_check.md``: each fitted α and t_B against the recording's known truth;
+* ``joint.md``: ``drumroll table examples/joint.toml``, one α fitted jointly for two
+  recordings of the same set-up, with the χ² test of the separate fits;
 * ``calibrate/``: ``drumroll calibrate data/table2_h80.toml --n 200``, the simulation-based
   calibration of the exact pendulum with the paper's priors (issue 14's acceptance), and
   ``calibrate-audio/``, the same with ``--audio``: each roll rendered, heard by the
@@ -38,7 +40,13 @@ from drumroll.reporting.markdown import render_markdown
 from drumroll.reporting.numbers import format_value_error
 from drumroll.reporting.report_files import document_writers
 from drumroll.table import load_runs, run_table
-from drumroll.table.formatting import FIGURE_CAPTION, FIGURE_NOTE, table_document
+from drumroll.table.formatting import (
+    FIGURE_CAPTION,
+    FIGURE_NOTE,
+    format_table,
+    table_document,
+)
+from drumroll.table.joint import joint_table
 from drumroll.table.plot import panels, table_png
 
 HERE = Path(__file__).resolve().parent
@@ -101,6 +109,12 @@ def main() -> None:
              + "\n".join(truth) + "\n")
     write_text(OUTPUT / "truth_check.md", check, overwrite=True)
     print(check)
+    runs = load_runs(HERE / "joint.toml")
+    result = run_table(runs, workers=args.workers, progress=print)
+    result.joint = joint_table(runs, result)
+    joint = format_table(result, "markdown")
+    write_text(OUTPUT / "joint.md", joint, overwrite=True)
+    print(joint)
     if not args.skip_calibration:
         calibrate(args.workers)
     print(f"written to {OUTPUT}")
