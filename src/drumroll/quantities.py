@@ -52,6 +52,9 @@ class Quantity:
     bounces
         For a derived quantity, the :class:`~drumroll.physics.bounces.Bounces` attribute it
         is (in SI).
+    at_lower_end
+        What a posterior piled against the prior's lower end means for the other quantities,
+        and what to do: added to the summary's warning (``""``: nothing to add).
     """
 
     key: str
@@ -67,6 +70,7 @@ class Quantity:
     open_lower: bool = True
     open_upper: bool = True
     bounces: str | None = None
+    at_lower_end: str = ""
 
     @property
     def section_key(self) -> str:
@@ -132,7 +136,11 @@ QUANTITIES: dict[str, Quantity] = {q.key: q for q in (
              "onset-timing jitter", 0.0, _INF, True, True),
     Quantity("contact_ms", "contact", r"$\tau_c$", "τ_c", "ms", 1e-3, "parameter",
              "contact time of each impact (its flight starts this long after its onset)",
-             0.0, _INF, False, True),
+             0.0, _INF, False, True,
+             # benchmarks/corpus_truth.py: rolls with instantaneous impacts, the default
+             # prior: alpha's mean z -1.0, t_B's -1.5 (-0.2 with contact_ms = 0)
+             at_lower_end="α and t_B lean low with it, by about 1 sd if the impacts truly "
+                          "have no contact (a simulator's): then say contact_ms = 0"),
     Quantity("restitution_scatter", "restitution_scatter", r"$s_\alpha$", "s_α", "", 1.0,
              "parameter", "bounce-to-bounce scatter of the restitution (sd of ln α_k)",
              0.0, _INF, False, True),

@@ -21,6 +21,7 @@ from drumroll.inference.results import (
 )
 from drumroll.inference.sampling import Chain
 from drumroll.onsets.table import single_flights
+from drumroll.quantities import QUANTITIES
 from drumroll.stats import central_band, hdi
 
 if TYPE_CHECKING:
@@ -104,8 +105,11 @@ def diagnostics(idata: Fit, chain: Chain, loo: LooResult | None,
                             f"(target {sampler.target_ess:.0f}); run longer")
         edge = _at_prior_edge(idata, name)
         if edge:
+            quantity = QUANTITIES.get(name)
+            consequence = (f"; {quantity.at_lower_end}" if edge == "lower" and quantity
+                           and quantity.at_lower_end else "")
             warnings.append(f"{model}: {name} piles up at the {edge} end of its prior: the "
-                            "prior, not the data, sets that side of its interval")
+                            f"prior, not the data, sets that side of its interval{consequence}")
     if not 0.1 <= chain.acceptance <= 0.7:
         warnings.append(f"{model}: acceptance fraction {chain.acceptance:.2f} is outside "
                         "0.1–0.7; the sampler is struggling")

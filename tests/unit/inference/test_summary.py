@@ -222,6 +222,22 @@ def test_posterior_at_the_edge_of_its_prior(edge):
     assert diagnostics(idata, _chain(), None, _settings()).warnings == ()
 
 
+def test_a_contact_time_at_zero_says_what_it_does_to_alpha():
+    """The contact time piled at its prior's 0: the warning says that α and t_B lean with it
+    and that instantaneous impacts want contact_ms = 0 (benchmarks/corpus_truth.py)."""
+    posterior = _posterior()
+    rng = np.random.default_rng(6)
+    posterior["contact_ms"] = np.abs(0.3 * rng.standard_normal((WALKERS, DRAWS)))
+    prior = {"alpha": rng.uniform(0.5, 1.0, (1, 2000)), "t_b": rng.uniform(0.01, 2.0, (1, 2000)),
+             "jitter_ms": np.exp(rng.uniform(math.log(0.01), math.log(10), (1, 2000))),
+             "contact_ms": rng.uniform(0.0, 3.0, (1, 2000))}
+    idata = _idata(posterior, prior=prior, sampled=("alpha", "t_b", "jitter_ms", "contact_ms"))
+    (warning,) = diagnostics(idata, _chain(), None, _settings()).warnings
+    assert warning.startswith("powerlaw: contact_ms piles up at the lower end of its prior")
+    assert warning.endswith("α and t_B lean low with it, by about 1 sd if the impacts truly "
+                            "have no contact (a simulator's): then say contact_ms = 0")
+
+
 def test_flight_series_is_the_central_band_of_the_draws(fit):
     draws = np.asarray(fit.posterior_predictive["flight_time_model"]).reshape(-1, 6)
     for prob in (0.9, 0.5):
