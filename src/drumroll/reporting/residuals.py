@@ -46,6 +46,18 @@ def _every_bounce(bounces: np.ndarray):
     return k, at
 
 
+def fill_band(ax, bounces: np.ndarray, low: np.ndarray, high: np.ndarray, **style) -> None:
+    """Shade ``low``–``high`` over the bounces, broken where a bounce is missing; a bounce with
+    neither neighbour observed (the last onset after a gap) gets a box ±0.25 wide, which
+    ``fill_between`` over one point would not draw."""
+    k, at = _every_bounce(bounces)
+    ax.fill_between(k, at(low), at(high), lw=0, **style)
+    present = set(bounces.tolist())
+    for b, lo, hi in zip(bounces.tolist(), low, high, strict=True):
+        if b - 1 not in present and b + 1 not in present:
+            ax.fill_between([b - 0.25, b + 0.25], lo, hi, lw=0, **style)
+
+
 def draw_residuals(summary: Summary):
     """Build the residual figure (a :class:`matplotlib.figure.Figure`), one panel per model
     of ``summary``, each from the model's residuals and bands and titled with its adequacy
@@ -66,11 +78,10 @@ def draw_residuals(summary: Summary):
         ms = 1e3
         # Bands and the connecting line break where a bounce is missing (NaN there).
         k, at = _every_bounce(t)
-        ax.fill_between(k, at(r["low"]) * ms, at(r["high"]) * ms, color=color, alpha=0.2,
-                        lw=0, zorder=1)
+        fill_band(ax, t, r["low"] * ms, r["high"] * ms, color=color, alpha=0.2, zorder=1)
         if r["model_low"].size:
-            ax.fill_between(k, at(r["model_low"]) * ms, at(r["model_high"]) * ms, color=color,
-                            alpha=0.45, lw=0, zorder=2)
+            fill_band(ax, t, r["model_low"] * ms, r["model_high"] * ms, color=color,
+                      alpha=0.45, zorder=2)
         ax.axhline(0.0, color="0.35", lw=0.8, zorder=3)
         ax.plot(k, at(r["residual"]) * ms, color="0.45", lw=0.7, zorder=4)
         yerr = r["sigma"] * ms if np.any(r["sigma"] > 0) else None

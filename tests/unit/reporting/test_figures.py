@@ -291,3 +291,22 @@ def test_one_draw_png_is_savefig_s_file(idatas, inputs, tmp_path, key):
         draw().savefig(theirs, dpi=plot_style.DPI, format="png", facecolor="white",
                        pil_kwargs={"compress_level": 1})
     assert ours.read_bytes() == theirs.read_bytes()
+
+
+def test_a_bounce_after_a_gap_keeps_its_band():
+    """The residuals' band breaks at missing bounces; an onset with neither neighbour (the
+    last one after two missed bounces, as table2_h80's) still gets its band, as a box."""
+    from matplotlib.figure import Figure
+
+    from drumroll.reporting.residuals import fill_band
+
+    ax = Figure().subplots()
+    bounces = np.array([0, 1, 2, 5])
+    fill_band(ax, bounces, np.array([-1.0, -1.0, -1.0, -2.0]), np.array([1.0, 1.0, 1.0, 3.0]))
+    boxes = [c.get_paths()[0].get_extents() for c in ax.collections]
+    covering_5 = [b for b in boxes if b.x0 <= 5.0 <= b.x1]
+    assert len(covering_5) == 1
+    box = covering_5[0]
+    assert (box.x0, box.x1, box.y0, box.y1) == pytest.approx((4.75, 5.25, -2.0, 3.0))
+    # the run 0-2 is one band, as before
+    assert any(b.x0 == pytest.approx(0.0) and b.x1 == pytest.approx(2.0) for b in boxes)
