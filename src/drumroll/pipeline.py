@@ -331,7 +331,8 @@ def _fit(log_posterior: LogPosterior, settings: EstimateSettings, seed: int
     if settings.evidence != "none":
         started = time.perf_counter()
         evidence, check = choose_evidence(log_posterior, chain.samples, settings.evidence,
-                                          seed=seed, n_live=settings.live_points)
+                                          seed=seed, n_live=settings.live_points,
+                                          atoms=chain.atoms)
         seconds["evidence"] = time.perf_counter() - started
     return chain, evidence, check, seconds
 

@@ -55,6 +55,9 @@ class Quantity:
     at_lower_end
         What a posterior piled against the prior's lower end means for the other quantities,
         and what to do: added to the summary's warning (``""``: nothing to add).
+    may_be_absent
+        Whether its prior may put an atom at 0 (``p_zero``, :class:`~drumroll.distributions.
+        OrZero`): an effect that a bouncer can lack altogether.
     """
 
     key: str
@@ -71,6 +74,7 @@ class Quantity:
     open_upper: bool = True
     bounces: str | None = None
     at_lower_end: str = ""
+    may_be_absent: bool = False
 
     @property
     def section_key(self) -> str:
@@ -137,13 +141,15 @@ QUANTITIES: dict[str, Quantity] = {q.key: q for q in (
     Quantity("contact_ms", "contact", r"$\tau_c$", "τ_c", "ms", 1e-3, "parameter",
              "contact time of each impact (its flight starts this long after its onset)",
              0.0, _INF, False, True,
-             # benchmarks/corpus_truth.py: rolls with instantaneous impacts, the default
-             # prior: alpha's mean z -1.0, t_B's -1.5 (-0.2 with contact_ms = 0)
+             # benchmarks/corpus_truth.py, rolls with instantaneous impacts under U(0, 3 ms):
+             # alpha's mean z -1.0, t_B's -1.5 (-0.2 with contact_ms = 0)
              at_lower_end="α and t_B lean low with it, by about 1 sd if the impacts truly "
-                          "have no contact (a simulator's): then say contact_ms = 0"),
+                          "have no contact: give the prior an atom at 0 (p_zero = 0.5, as "
+                          "the default does) or say contact_ms = 0",
+             may_be_absent=True),
     Quantity("restitution_scatter", "restitution_scatter", r"$s_\alpha$", "s_α", "", 1.0,
              "parameter", "bounce-to-bounce scatter of the restitution (sd of ln α_k)",
-             0.0, _INF, False, True),
+             0.0, _INF, False, True, may_be_absent=True),
     Quantity("restitution_exponent", "restitution_exponent", r"$p$", "p", "", 1.0,
              "parameter", "exponent of the restitution's speed dependence, "
              "1 − α(v) = (1 − α)(v/v₁)^p (models MOTION/speed)"),

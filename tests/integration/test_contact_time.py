@@ -3,12 +3,15 @@ at its end, so impact m comes m contact times after the flights alone put it.
 
 A power-law roll with 1 ms of contact per impact, fitted without the contact time, puts α
 many of its sds off the truth (the issue measured +15 sd on table2_h50); with the contact
-time sampled, as it is by default (uniform over 0-3 ms when ``[priors]`` leaves it out), α and
-t_B cover the truth and the contact time is found."""
+time sampled, as it is by default (none, or uniform over 0-3 ms, at even odds when
+``[priors]`` leaves it out), α and t_B cover the truth and the contact time is found. Whether
+there is a contact at all is weighed by the evidence: the sampler's share of "none" equals the
+odds the evidences of the two nested fits (no contact; a contact over 0-3 ms) give."""
 
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -18,11 +21,13 @@ from drumroll.cli.main import main
 from drumroll.config import parse_config
 from drumroll.errors import ConfigError
 from drumroll.inference.likelihood import OnsetData
+from drumroll.inference.evidence import importance_evidence
 from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.sampling import SamplerSettings, run_emcee
 from drumroll.inference.settings import estimate_settings
 
 ALPHA, T_B, CONTACT, N = 0.9, 0.25, 1e-3, 21
-# BALL_CONFIG leaves the contact time out: its default prior, uniform over 0-3 ms.
+# BALL_CONFIG leaves the contact time out: its default prior, none or 0-3 ms.
 WITHOUT_CONTACT = BALL_CONFIG.replace("[priors]\n", "[priors]\ncontact_ms = 0\n")
 
 
@@ -106,3 +111,38 @@ def test_the_contact_time_is_found_and_alpha_is_no_longer_biased(fits):
         p = with_contact[name]
         assert p["hdi_low"] < truth < p["hdi_high"], name
     assert with_contact["contact_ms"]["sd"] < 0.15
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "contact_s"), [(7, 0.1e-3), (8, 0.15e-3), (9, 0.08e-3)])
+def test_the_chance_of_no_contact_is_the_odds_of_the_two_nested_fits(seed, contact_s):
+    """20 onsets timed to 0.05-0.1 ms, contacts of 0.08-0.15 ms: the default prior's share
+    of "no contact" in the draws (the sampler's plateau) equals p₀ Z₀ / (p₀ Z₀ + (1 − p₀) Z₁)
+    from the evidences of two separate fits, one without a contact time and one with a
+    contact uniform over 0-3 ms (importance sampling, each checked by its Pareto k), from
+    near 1 to near 0.1; and the fit's own evidence is the mixture's."""
+    rng = np.random.default_rng(seed)
+    impacts = np.r_[0.0, np.cumsum(0.3 * 0.85 ** np.arange(1, 20) + contact_s)]
+    noise = 0.5e-4 if seed == 9 else 1e-4
+    data = OnsetData.from_arrays(0.5 + impacts + rng.normal(0.0, noise, 20))
+    fits = {}
+    for name, contact in (("none", 0), ("some", {"dist": "uniform", "low": 0, "high": 3}),
+                          ("default", None)):
+        raw = {"model": "powerlaw", "priors": {
+            "alpha": {"dist": "uniform", "low": 0.5, "high": 1},
+            "t_b": {"dist": "uniform", "low": 0.01, "high": 2},
+            "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10},
+            **({} if contact is None else {"contact_ms": contact})}}
+        posterior = LogPosterior.build(parse_config(raw), "powerlaw", data)
+        chain = run_emcee(posterior, SamplerSettings(seed=seed))
+        evidence = importance_evidence(posterior, chain.samples, np.random.default_rng(seed),
+                                       atoms=chain.atoms)
+        assert chain.converged and evidence.trusted, name
+        fits[name] = posterior, chain, evidence
+    log_z0, log_z1 = fits["none"][2].log_z, fits["some"][2].log_z
+    odds = 1.0 / (1.0 + math.exp(log_z1 - log_z0))  # p0 = 1/2
+    posterior, chain, evidence = fits["default"]
+    share = np.mean(chain.samples[..., posterior.space.names.index("contact")] < 0.0)
+    assert share == pytest.approx(odds, abs=0.04)
+    assert evidence.log_z == pytest.approx(np.logaddexp(log_z0, log_z1) - math.log(2.0),
+                                           abs=4 * evidence.log_z_err + 0.02)

@@ -32,7 +32,7 @@ import pytest
 from scipy import integrate, stats
 
 from drumroll.config.priors_section import parse_prior
-from drumroll.distributions import FAMILIES, Fixed, HalfNormal, Normal, Truncated
+from drumroll.distributions import FAMILIES, Fixed, HalfNormal, Normal, OrZero, Truncated
 from drumroll.errors import ConfigError
 from drumroll.quantities import QUANTITIES
 
@@ -306,3 +306,51 @@ def test_density_far_out_is_minus_infinity_without_a_warning(prior):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert prior.logpdf(np.array([1e200]))[0] == -np.inf
+
+
+# --- an atom at 0 (an effect that may be absent) -----------------------------------------
+
+CONTACT = QUANTITIES["contact_ms"]
+
+
+@pytest.mark.parametrize(("slab", "p_zero"), [({"dist": "uniform", "low": 0.0, "high": 3.0}, 0.5),
+                                              ({"dist": "halfnormal", "sigma": 1.0}, 0.2)])
+def test_an_atom_at_zero_is_the_mixture_it_describes(slab, p_zero):
+    """``p_zero`` in a contact-time prior: the coordinate's density integrates to 1, its
+    negative half holds p_zero, the parameter (max(u, 0)) is 0 with probability p_zero and
+    otherwise follows scipy's slab, in seconds; half and double widen only the slab."""
+    prior = parse_prior({**slab, "p_zero": p_zero}, CONTACT, "priors.contact_ms")
+    assert isinstance(prior, OrZero)
+    lo, hi = prior.support
+    top = hi if math.isfinite(hi) else 0.02
+    total = (integrate.quad(lambda u: float(np.exp(prior.logpdf(u))), lo, 0.0)[0]
+             + integrate.quad(lambda u: float(np.exp(prior.logpdf(u))), 0.0, top)[0])
+    assert total == pytest.approx(1.0, abs=1e-6)
+    assert prior.logpdf(lo - 1e-6) == -np.inf and prior.logpdf(-1e-4) == math.log(p_zero / -lo)
+    ref = (stats.uniform(0.0, 3e-3) if slab["dist"] == "uniform" else stats.halfnorm(scale=1e-3))
+    u = prior.sample(np.random.default_rng(3), 20_000)
+    value = prior.parameter_of(u)
+    assert np.mean(value == 0.0) == pytest.approx(p_zero, abs=0.015)
+    assert stats.kstest(value[value > 0.0], ref.cdf).pvalue > 1e-3
+    np.testing.assert_allclose(prior.ppf(np.array([0.0, p_zero, 1.0 - 1e-12])),
+                               [lo, 0.0, ref.ppf(1.0 - 1e-12 / (1.0 - p_zero))], rtol=1e-6)
+    wider = prior.widened(2.0)
+    assert wider.p_zero == p_zero and wider.slab == prior.slab.widened(2.0)
+    assert "or 0 with probability" in prior.describe()
+
+
+@pytest.mark.parametrize(("value", "message"), [
+    ({"dist": "uniform", "low": 0.0, "high": 3.0, "p_zero": 1.0}, r"strictly between 0 and 1"),
+    ({"dist": "uniform", "low": 0.0, "high": 3.0, "p_zero": 0.0}, r"give the number 0"),
+    ({"dist": "uniform", "low": 0.5, "high": 3.0, "p_zero": 0.5}, r"needs a distribution "
+                                                                   r"that starts at 0"),
+])
+def test_bad_atoms_at_zero_raise_config_errors(value, message):
+    with pytest.raises(ConfigError, match=message):
+        parse_prior(value, CONTACT, "priors.contact_ms")
+
+
+def test_only_an_effect_that_may_be_absent_takes_an_atom_at_zero():
+    with pytest.raises(ConfigError, match=r"unknown key"):
+        parse_prior({"dist": "halfnormal", "sigma": 1.0, "p_zero": 0.5}, JITTER,
+                    "priors.jitter_ms")

@@ -155,6 +155,8 @@ def terminal_table(result: Result) -> str:
         r_hat = "—" if p.r_hat is None else f"{p.r_hat:.4f}"
         ess = "—" if p.ess_bulk is None else f"{min(p.ess_bulk, p.ess_tail or math.inf):.0f}"
         lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>7} {ess:>6}")
+    lines += [f"{name} is 0 (absent) with probability {p.probability_zero:.2f}"
+              for name, p in parameters.items() if p.probability_zero is not None]
     lines += [f"warning: {warning}" for warning in summary.warnings if warning != misfit]
     lines.append("")
     preferred = summary.preferred

@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from drumroll.config.validate import check_keys, number, string, table
-from drumroll.distributions import FAMILIES, Distribution, Fixed, Truncated
+from drumroll.distributions import FAMILIES, Distribution, Fixed, OrZero, Truncated
 from drumroll.errors import ConfigError
 from drumroll.quantities import Quantity
 
@@ -46,7 +46,8 @@ def parse_prior(value: Any, spec: Quantity, key: str) -> Distribution:
                           f"{', '.join(FAMILIES)}), or give a number to fix the value")
     family = string(value["dist"], f"{key}.dist", FAMILIES)
     cls, required, optional = FAMILIES[family]
-    check_keys(value, ("dist", *required, *optional), key)
+    check_keys(value, ("dist", *required, *optional, *(("p_zero",) if spec.may_be_absent
+                                                          else ())), key)
     for name in required:
         if name not in value:
             raise ConfigError(f"{key}: the {family} distribution needs {name!r}")
@@ -68,7 +69,20 @@ def parse_prior(value: Any, spec: Quantity, key: str) -> Distribution:
     if not prior.mass > 1e-12:
         raise ConfigError(f"{key}: this prior puts no probability inside the physical range "
                           f"{spec.range_text()}")
+    if "p_zero" in value:
+        return _or_zero(prior, number(value["p_zero"], f"{key}.p_zero"), key).scaled(spec.to_si)
     return prior.scaled(spec.to_si)
+
+
+def _or_zero(slab: Truncated, p_zero: float, key: str) -> OrZero:
+    """``slab`` with an atom of probability ``p_zero`` at 0 (an effect that may be absent)."""
+    if not 0.0 < p_zero < 1.0:
+        raise ConfigError(f"{key}.p_zero: the probability of 0 must lie strictly between 0 "
+                          f"and 1, got {p_zero:g} (for exactly 0, give the number 0)")
+    if slab.support[0] != 0.0:
+        raise ConfigError(f"{key}.p_zero: an atom at 0 needs a distribution that starts at 0 "
+                          f"(this one starts at {slab.support[0]:g})")
+    return OrZero(slab, p_zero=p_zero)
 
 
 def _check_family_parameters(family: str, params: dict[str, float], key: str) -> None:

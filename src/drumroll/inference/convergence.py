@@ -150,6 +150,8 @@ def r_hat(draws: NDArray, groups: int = RHAT_GROUPS) -> NDArray:
     median = np.median(split.reshape(split.shape[0], -1), axis=1)[:, None, None]
     folded = _rhat_plain(_z_scale(np.abs(split - median)))
     out = np.maximum(bulk, folded)
+    # A constant (a contact time at its atom 0 in every draw): the walkers agree exactly.
+    out[np.ptp(split, axis=(1, 2)) == 0.0] = 1.0
     out[~np.all(np.isfinite(split), axis=(1, 2))] = np.nan
     return out
 

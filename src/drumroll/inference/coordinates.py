@@ -8,9 +8,32 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from drumroll.distributions import OrZero
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.space import SCATTER, ParameterSpace
 from drumroll.physics.release import swing
+
+
+@dataclass(frozen=True)
+class AtomGeometry:
+    """How the walkers move between "absent" and "present" for one effect that may be absent
+    (see :class:`SamplerCoordinates`).
+
+    Attributes
+    ----------
+    plateau
+        The width in z of the stretch that stands for "absent".
+    ridge
+        b, per column of z: how far each other coordinate moves per unit of the effect's
+        size along the posterior's ridge (0 in the atom's own column); None: nowhere.
+    """
+
+    plateau: float
+    ridge: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if not self.plateau > 0.0:
+            raise ValueError("the plateau must be wider than 0")
 
 
 @dataclass(frozen=True)
@@ -23,7 +46,8 @@ class SamplerCoordinates:
 
     * the scale parameters ``jitter``, ``t_b`` and the restitution's scatter → their
       logarithms (∂x/∂z = x); the scatter's posterior piles against s = 0 under a prior that
-      allows none, where moves in s itself step below 0 and are refused;
+      allows none, where moves in s itself step below 0 and are refused (a scatter whose
+      prior has an atom at 0 is mapped as the atoms below are, not through its logarithm);
     * ``height`` → q = ω_C/γ of the model's own linearised kinematics,
       q² = (ω0² + 2γ(θ_C − θ0)) / γ², with θ_C = asin(h / (L − d)) (pendulum) or
       h / (L − d) (small-angle). The data pin down t_B ≈ 2q, which in (d, h) is a curved ridge
@@ -37,6 +61,20 @@ class SamplerCoordinates:
       of the flights and scales with the jitter (a funnel); δ is nearly independent of both,
       which halves the slowest autocorrelation time.
 
+    * an effect that may be absent (:class:`~drumroll.distributions.OrZero`, the default
+      contact time), whose coordinate u stands for the atom at 0 on [−w, 0), the prior's
+      ``width`` w, and for the effect's size τ = u above 0. Two maps, each from
+      ``atoms`` (one :class:`AtomGeometry` per atom column, set from the start by
+      :func:`~drumroll.inference.sampling.atom_geometry`; by default none), let walkers move
+      between "absent" and "present". The plateau is scaled to the slab's posterior width
+      (u = z · w / plateau below 0, ∂u/∂z = w / plateau): walkers spread over a 3 ms
+      plateau rarely step into a slab 10 µs wide, and the two mixed a thousand times too
+      slowly. And the other coordinates follow the effect's size along the posterior's
+      ridge, z_i + b_i τ (unit Jacobian): a contact time is taken up by the flights (α and
+      t_B shrink as τ grows), so without it a walker leaving the plateau, where α sits at
+      its best without contact, finds the slab's α several sds away. Neither changes the
+      density of x: the posterior probability of "absent" is the same whatever they are.
+
     The density of z is p(x(z)) |det ∂x/∂z|; the Jacobian is triangular, so its log
     determinant is the sum of the log derivatives above. z points outside the image of the
     valid parameter set map to NaN (log posterior −inf), so the map is a bijection between the
@@ -45,16 +83,37 @@ class SamplerCoordinates:
 
     space: ParameterSpace
     data: OnsetData | None = None
+    #: The geometry of each atom column (:attr:`atom_columns`, in order); empty: the prior's
+    #: own width and no ridge.
+    atoms: tuple[AtomGeometry, ...] = ()
 
     def __post_init__(self) -> None:
         names = self.space.names
-        logs = tuple(names.index(n) for n in ("jitter", "t_b", SCATTER) if n in names)
+        priors = getattr(self.space, "priors", {})  # a joint fit's space has none of its own
+        logs = tuple(names.index(n) for n in ("jitter", "t_b", SCATTER)
+                     if n in names and not isinstance(priors.get(n), OrZero))
         height = (names.index("height") if "height" in names
                   and self.space.forward.needs_stick else None)
         t0 = names.index("t0") if "t0" in names and self.data is not None else None
         object.__setattr__(self, "_logs", logs)
         object.__setattr__(self, "_height", height)
         object.__setattr__(self, "_t0", t0)
+        atoms = tuple(i for i, n in enumerate(names) if isinstance(priors.get(n), OrZero))
+        geometry = self.atoms or tuple(AtomGeometry(priors[names[i]].width) for i in atoms)
+        if len(geometry) != len(atoms):
+            raise ValueError("one AtomGeometry per atom column")
+        object.__setattr__(self, "_atoms", atoms)
+        # u = stretch · z on the plateau (z < 0), per atom column.
+        object.__setattr__(self, "_stretch", tuple(
+            priors[names[i]].width / g.plateau for i, g in zip(atoms, geometry, strict=True)))
+        ridges = [np.zeros(len(names)) if g.ridge is None else np.array(g.ridge, float)
+                  for g in geometry]
+        object.__setattr__(self, "_ridges", tuple(ridges))
+
+    @property
+    def atom_columns(self) -> tuple[int, ...]:
+        """The columns of effects that may be absent (an atom at 0: see the class docstring)."""
+        return self._atoms
 
     @property
     def t0_column(self) -> int | None:
@@ -72,6 +131,12 @@ class SamplerCoordinates:
         if own_box is not None:
             return own_box()
         box = np.array([self.space.priors[name].support for name in self.space.names], float)
+        # An effect that may be absent (OrZero: u < 0 stands for the atom at 0) climbs on its
+        # slab: below 0 the density is flat in u, so a climb there has no gradient to follow
+        # and would stop wherever it started, while the atom's own density is the slab's
+        # lower end, the likelihood being continuous there.
+        for i in self._atoms:
+            box[i, 0] = 0.0
         with np.errstate(divide="ignore"):
             for i in self._logs:
                 box[i] = np.log(box[i])
@@ -121,6 +186,9 @@ class SamplerCoordinates:
                 impacts, valid = self.space.impacts(x, self.data.n_flights)
                 centre, scale = self._t0_centre(x, impacts)
                 z[:, self._t0] = np.where(valid, (x[:, self._t0] - centre) / scale, np.nan)
+            for i, stretch, ridge in zip(self._atoms, self._stretch, self._ridges, strict=True):
+                z -= np.maximum(x[:, i], 0.0)[:, None] * ridge
+                z[:, i] = np.where(x[:, i] < 0.0, x[:, i] / stretch, x[:, i])
         return z
 
     def to_parameters(self, z: NDArray) -> tuple[NDArray, NDArray]:
@@ -134,10 +202,16 @@ class SamplerCoordinates:
         (:meth:`ParameterSpace.impacts`) when the T0 map needed them (else None), so that the
         sampler's target does not run the forward model twice."""
         z = np.atleast_2d(np.asarray(z, float))
-        x = z.copy()
         log_det = np.zeros(z.shape[0])
         impacts = None
         with np.errstate(all="ignore"):
+            for i, ridge in zip(self._atoms, self._ridges, strict=True):
+                z = z + np.maximum(z[:, i], 0.0)[:, None] * ridge  # the ridge: unit Jacobian
+            x = z.copy()
+            for i, stretch in zip(self._atoms, self._stretch, strict=True):
+                plateau = z[:, i] < 0.0
+                x[:, i] = np.where(plateau, stretch * z[:, i], z[:, i])
+                log_det += np.where(plateau, math.log(stretch), 0.0)
             for i in self._logs:
                 x[:, i] = np.exp(z[:, i])
                 log_det += z[:, i]
@@ -167,9 +241,16 @@ class SamplerCoordinates:
         """:meth:`to_parameters_and_impacts` for one point ``(ndim,)`` (nested sampling's path):
         scalars in ``math``, one small array for the onsets. Returns ``None`` where ``z`` maps
         outside the valid parameters."""
+        for i, ridge in zip(self._atoms, self._ridges, strict=True):
+            if z[i] > 0.0:
+                z = z + z[i] * ridge
         row = z.tolist()
         log_det = 0.0
         try:
+            for i, stretch in zip(self._atoms, self._stretch, strict=True):
+                if row[i] < 0.0:
+                    row[i] *= stretch
+                    log_det += math.log(stretch)
             for i in self._logs:
                 log_det += row[i]
                 row[i] = math.exp(row[i])

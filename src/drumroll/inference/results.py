@@ -98,6 +98,9 @@ class ParameterSummary(Record):
     r_hat: float | None = None
     ess_bulk: float | None = None
     ess_tail: float | None = None
+    #: The posterior probability that the quantity is exactly 0, where its prior gives 0 a
+    #: probability of its own (an effect that may be absent: the default contact time).
+    probability_zero: float | None = None
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,7 +19,7 @@ from scipy import optimize, special
 
 from drumroll.errors import OnsetsOutsidePriors
 from drumroll.inference.convergence import diagnose, integrated_time
-from drumroll.inference.coordinates import SamplerCoordinates
+from drumroll.inference.coordinates import AtomGeometry, SamplerCoordinates
 from drumroll.inference.posterior import LogPosterior
 
 #: Draws ``(walkers, draws, ndim)`` → every reported quantity, ``(walkers, draws)`` each.
@@ -86,6 +86,10 @@ class Chain:
         The point the walkers started around (the highest density found in z).
     checks
         Convergence checks made.
+    atoms
+        The sampler coordinates' geometry of effects that may be absent (see
+        :class:`~drumroll.inference.coordinates.SamplerCoordinates`): where the posterior,
+        in them, is compact (the evidence's importance sampling uses them too).
     """
 
     samples: NDArray
@@ -98,6 +102,7 @@ class Chain:
     converged: bool
     mode: NDArray
     checks: int = 0
+    atoms: tuple[AtomGeometry, ...] = ()
 
 
 def initial_ball(log_posterior: LogPosterior, centre: NDArray, walkers: int,
@@ -190,6 +195,57 @@ def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 
         if value > best_value:
             best, best_value = point, value
     return best
+
+
+def atom_geometry(coordinates: SamplerCoordinates, slab_draws: NDArray
+                  ) -> tuple[AtomGeometry, ...]:
+    """How the walkers should move between "absent" and "present" for each atom column of
+    ``coordinates`` (:class:`~drumroll.inference.coordinates.AtomGeometry`, one per
+    :attr:`~drumroll.inference.coordinates.SamplerCoordinates.atom_columns`), from draws of
+    the posterior with every effect present (z ``(..., ndim)`` in ``coordinates``, the atoms'
+    columns ≥ 0: :func:`run_emcee`'s first steps).
+
+    Along atom column j, with τ the effect's size and θ the other columns:
+
+    * the ridge: b_θ = cov(θ, τ) / var(τ), how far the other columns' mean moves per unit of
+      the effect (a contact time is taken up by the flights);
+    * the plateau: twice τ's sd, so that "absent" is about as wide in z as "present"; never
+      wider than the prior's own plateau, and the prior's own where τ does not vary.
+
+    Taken from draws, not from derivatives at the start: the posterior of a contact time that
+    piles against 0 is far from Gaussian there (a roll of 16 onsets timed to 10 µs: the
+    curvature at 0 put the half-nat point at 16 µs, while the draws reach 0.3 ms).
+    """
+    z = np.asarray(slab_draws, float).reshape(-1, slab_draws.shape[-1])
+    z = z[np.all(np.isfinite(z), axis=1)]
+    space = coordinates.space
+    out = []
+    for j in coordinates.atom_columns:
+        width = space.priors[space.names[j]].width
+        size = z[:, j]
+        spread = float(np.std(size)) if size.size > 1 else 0.0
+        if not spread > 0.0:
+            out.append(AtomGeometry(width))
+            continue
+        ridge = ((z - z.mean(axis=0)).T @ (size - size.mean())) / (size.size * spread**2)
+        ridge[list(coordinates.atom_columns)] = 0.0  # each atom keeps its own column
+        out.append(AtomGeometry(min(2.0 * spread, width), tuple(float(v) for v in ridge)))
+    return tuple(out)
+
+
+class _SlabTarget:
+    """``target`` with every effect that may be absent present: −inf where an atom's column
+    is below 0 (the plateau). Above 0 an atom's density is its slab's times 1 − p₀, a
+    constant, so this is the posterior given that every effect is present."""
+
+    def __init__(self, target: SamplerTarget) -> None:
+        self.target = target
+        self.columns = list(target.coordinates.atom_columns)
+
+    def __call__(self, z: NDArray) -> NDArray:
+        density = self.target(z)
+        density[np.any(z[:, self.columns] < 0.0, axis=1)] = -np.inf
+        return density
 
 
 def _climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int = 6
@@ -322,16 +378,33 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
         # a Gaussian posterior would give it, which onsets a model can fit never do (times in
         # the wrong unit, a jitter prior that stops short of the roll's misfit).
         raise OnsetsOutsidePriors(log_posterior.space.model)
-    sampler = ensemble_sampler(target, walkers, ndim,
-                               int(np.random.SeedSequence([settings.seed, 1]).generate_state(1)[0]))
+    seeds = np.random.SeedSequence([settings.seed, 1]).generate_state(2)
+    first = 0  # steps taken before the chain that is kept (the atoms' first phase)
+    if coordinates.atom_columns:
+        # Effects that may be absent: the walkers first sample with every effect present, for
+        # one check's worth of steps; the second half of that walk shows how the posterior
+        # moves with each effect's size, which sets the coordinates that let "absent" and
+        # "present" mix (atom_geometry). Those steps are burn-in: the chain kept starts after.
+        first = min(settings.check_every, settings.max_steps // 2)
+        start[:, coordinates.atom_columns] = np.abs(start[:, coordinates.atom_columns])
+        slab = ensemble_sampler(_SlabTarget(target), walkers, ndim, int(seeds[1]))
+        slab.run_mcmc(start, first, progress=False)
+        present = coordinates.to_parameters(slab.get_last_sample().coords)[0]
+        coordinates = replace(coordinates, atoms=atom_geometry(
+            coordinates, slab.get_chain(discard=first // 2)))
+        target = SamplerTarget(log_posterior, coordinates)
+        start = coordinates.to_sampler(present)
+        if progress is not None:
+            progress(first, settings.max_steps)
+    sampler = ensemble_sampler(target, walkers, ndim, int(seeds[0]))
     converged, checks, steps, state = False, 0, 0, start
-    until = min(settings.check_every, settings.max_steps)
+    until = min(settings.check_every, settings.max_steps - first)
     while True:
         state = sampler.run_mcmc(state, until - steps, progress=False)
         steps = until
         checks += 1
         if progress is not None:
-            progress(steps, settings.max_steps)
+            progress(first + steps, settings.max_steps)
         # τ of the walk in z, where it moves: burn-in and thinning are about its mixing.
         tau = integrated_time(sampler.get_chain())
         burn, thin = _burn_and_thin(tau, steps)
@@ -346,13 +419,13 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
         if long_enough and _targets_met(stats, settings):
             converged = True
             break
-        if steps >= settings.max_steps:
+        if first + steps >= settings.max_steps:
             break
-        until = min(_next_check(stats, settings, tau, steps, burn), settings.max_steps)
+        until = min(_next_check(stats, settings, tau, steps, burn), settings.max_steps - first)
     return Chain(samples=samples, log_prob=log_prob, tau=tau,
                  acceptance=float(np.mean(sampler.acceptance_fraction)),
-                 n_steps=steps, burn=burn, thin=thin, converged=converged,
-                 mode=mode, checks=checks)
+                 n_steps=first + steps, burn=first + burn, thin=thin, converged=converged,
+                 mode=mode, checks=checks, atoms=coordinates.atoms)
 
 
 def parameter_draws(sampler, coordinates: SamplerCoordinates, burn: int, thin: int

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from drumroll.config import Config
-from drumroll.distributions import Distribution, Fixed, LogNormal, LogUniform, Uniform
+from drumroll.distributions import Distribution, Fixed, LogNormal, LogUniform, OrZero, Uniform
 from drumroll.inference.prior_predictive import propagate
 from drumroll.inference.prior_table import PriorTable
 from drumroll.physics import Bounces, StickGeometry
@@ -34,11 +34,13 @@ SCATTER = "restitution_scatter"
 #: starts at its end, so impact m comes m contact times later than the flights alone put it.
 CONTACT = "contact"
 
-#: Distribution of the contact time when the config gives none (SI: 0 to 3 ms). A drumstick
-#: rests on a head for about a millisecond, a ball on a table for less (physics.md): a roll
-#: is timed from the starts of contact, so every model carries it unless the config fixes it
-#: (``contact_ms = 0``).
-DEFAULT_CONTACT_PRIOR: Distribution = Uniform(low=0.0, high=3e-3)
+#: Distribution of the contact time when the config gives none (SI): none at all or 0 to 3 ms,
+#: at even odds. A drumstick rests on a head for about a millisecond, a ball on a table for
+#: less (physics.md), so a roll is timed from the starts of contact and every model carries
+#: it unless the config fixes it (``contact_ms = 0``); but a roll cannot tell no contact from
+#: a fraction of a millisecond, and a range starting at 0 would then put its mean inside the
+#: range and pull α and t_B along (:class:`~drumroll.distributions.OrZero`).
+DEFAULT_CONTACT_PRIOR: Distribution = OrZero(Uniform(low=0.0, high=3e-3), p_zero=0.5)
 
 #: Stick dimensions: the internal name under which an uncertain one is sampled → its field.
 STICK_PARAMETERS = {q.name: q.field for q in STICK_DIMENSIONS.values()}
@@ -114,6 +116,9 @@ class ParameterSpace:
         object.__setattr__(self, "_column", {name: i for i, name in enumerate(self.names)})
         object.__setattr__(self, "_fixed", {name: float(p.value) for name, p in self.priors.items()
                                             if isinstance(p, Fixed)})
+        # Columns sampled through a coordinate that is not the parameter itself (an atom at 0).
+        object.__setattr__(self, "_mapped", {name: p.parameter_of for name, p in
+                                             self.priors.items() if isinstance(p, OrZero)})
         forward = forward_model(self.model)
         object.__setattr__(self, "forward", forward)
         object.__setattr__(self, "_stick_shape",
@@ -134,6 +139,8 @@ class ParameterSpace:
         out: dict[str, NDArray] = {name: prior.value for name, prior in self.priors.items()
                                    if isinstance(prior, Fixed)}
         out.update({name: x[:, i] for i, name in enumerate(self.names)})
+        for name, parameter_of in self._mapped.items():
+            out[name] = parameter_of(out[name])
         return out
 
     def log_prior(self, x: NDArray) -> NDArray:
@@ -283,7 +290,9 @@ class ParameterSpace:
     def value(self, x: NDArray, name: str) -> NDArray | float:
         """Column ``name`` of ``x`` (shape ``(batch, ndim)``), or its fixed value."""
         i = self._column.get(name)
-        return x[:, i] if i is not None else self._fixed[name]
+        if i is None:
+            return self._fixed[name]
+        return self._mapped[name](x[:, i]) if name in self._mapped else x[:, i]
 
     def impacts_one(self, x: NDArray, n_flights: int) -> NDArray | None:
         """:meth:`impacts` for a single point ``(ndim,)`` (nested sampling): ``None`` where it

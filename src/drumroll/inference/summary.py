@@ -45,13 +45,31 @@ def parameter_summary(idata: Fit, hdi_prob: float = 0.9
     for name, values in posterior.data_vars.items():
         draws = np.asarray(values)
         low, high = hdi(draws, hdi_prob)
+        zero = (json_number(np.mean(draws == 0.0)) if _prior_atom(idata, str(name)) == 0.0
+                else None)
         out[str(name)] = ParameterSummary(
             mean=json_number(draws.mean()), sd=json_number(draws.std(ddof=1)),
             median=json_number(np.median(draws)),
             hdi_low=json_number(low), hdi_high=json_number(high), hdi_prob=hdi_prob,
             r_hat=json_number(stats[name]["r_hat"]), ess_bulk=json_number(stats[name]["ess_bulk"]),
-            ess_tail=json_number(stats[name]["ess_tail"]))
+            ess_tail=json_number(stats[name]["ess_tail"]), probability_zero=zero)
     return out
+
+
+#: The share of prior draws at one value from which that value is an atom of the prior.
+_ATOM_SHARE = 0.01
+
+
+def _prior_atom(idata: Fit, name: str) -> float | None:
+    """The lower end of ``name``'s prior draws where the prior holds it with a probability of
+    its own (an atom: :class:`~drumroll.distributions.OrZero`'s 0), else None."""
+    if "prior" not in idata.groups() or name not in idata.prior:
+        return None
+    prior = np.asarray(idata.prior[name]).ravel()
+    if not prior.size:
+        return None
+    lowest = float(np.min(prior))
+    return lowest if np.mean(prior == lowest) > _ATOM_SHARE else None
 
 
 def _at_prior_edge(idata: Fit, name: str) -> str | None:
@@ -59,7 +77,9 @@ def _at_prior_edge(idata: Fit, name: str) -> str | None:
 
     The posterior is cut off when the prior's bound lies within two posterior standard
     deviations of the posterior median: the bound, not the data, then shapes that side of
-    the interval (a scale-free test: it works for log-uniform jitter priors too).
+    the interval (a scale-free test: it works for log-uniform jitter priors too). A lower end
+    that the prior holds with a probability of its own (an atom: "no contact") is an answer,
+    not a cut: the summary gives its posterior probability instead.
     """
     if "prior" not in idata.groups() or name not in idata.prior:
         return None
@@ -68,7 +88,7 @@ def _at_prior_edge(idata: Fit, name: str) -> str | None:
     median, sd = np.median(post), np.std(post)
     if not sd > 0:
         return None
-    if median - np.min(prior) < 2.0 * sd:
+    if median - np.min(prior) < 2.0 * sd and _prior_atom(idata, name) is None:
         return "lower"
     if np.max(prior) - median < 2.0 * sd:
         return "upper"

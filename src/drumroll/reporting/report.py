@@ -176,6 +176,8 @@ def parameter_table(parameters: dict[str, ParameterSummary], model: str = "",
         meaning = describe(key)
         if (key in DERIVED and DERIVED[key].name not in sampled) or key in DRAW_DERIVED:
             meaning += " (derived)"
+        if stats.probability_zero is not None:  # a prior with an atom at 0
+            meaning += f"; 0 (absent) with probability {stats.probability_zero:.2f}"
         rows.append(((parameter_heading(key),), (meaning,), estimate, interval,
                      _rhat_content(stats.r_hat, targets.max_r_hat, f"{here}/r_hat"),
                      _ess_content(stats.ess_bulk, stats.ess_tail, targets.target_ess, here)))

@@ -227,7 +227,7 @@ def test_cheap_evidence_agrees_with_dynesty_on_a_bundled_recording(model, cheap_
     lp = LogPosterior.build(config, model, choose_roll(onsets).data, settings.noise,
                             settings.nu)
     chain = run_emcee(lp, SamplerSettings(seed=4), reported=lambda d: reported_draws(lp, 4, d))
-    nested, cheap = choose_evidence(lp, chain.samples, "nested", seed=4)
+    nested, cheap = choose_evidence(lp, chain.samples, "nested", seed=4, atoms=chain.atoms)
     if cheap_passes:
         assert cheap.trusted, cheap.failure
     if not cheap.trusted:

@@ -48,6 +48,8 @@ def _config(variant: str):
         priors["alpha"] = {"dist": "beta", "a": 20, "b": 3}
     elif variant == "scatter":  # the restitution's scatter, sampled in its logarithm
         priors["restitution_scatter"] = {"dist": "halfnormal", "sigma": 0.02}
+    elif variant == "scatter-atom":  # a scatter that may be absent: an atom, not a logarithm
+        priors["restitution_scatter"] = {"dist": "halfnormal", "sigma": 0.02, "p_zero": 0.3}
     elif variant == "radius":
         stick["radius_mm"] = {"dist": "uniform", "low": 5, "high": 10}
         priors["jitter_ms"] = {"dist": "halfnormal", "sigma": 1.0}
@@ -152,11 +154,11 @@ def test_lean_impacts_match_bounces_on_valid_points():
 
 # --- sampler coordinates ---------------------------------------------------------------------
 
-from drumroll.inference.coordinates import SamplerCoordinates  # noqa: E402
+from drumroll.inference.coordinates import AtomGeometry, SamplerCoordinates  # noqa: E402
 from drumroll.inference.sampling import SamplerSettings, SamplerTarget, run_emcee  # noqa: E402
 
 COORDINATE_CASES = [(model, variant) for model in ("pendulum", "small-angle", "powerlaw")
-                    for variant in ("table1", "release", "thin-rod", "scatter")]
+                    for variant in ("table1", "release", "thin-rod", "scatter", "scatter-atom")]
 
 
 def _numerical_log_det(coords, zr: np.ndarray) -> float:
@@ -185,6 +187,50 @@ def test_sampler_coordinates_round_trip_and_jacobian(model, variant):
     np.testing.assert_allclose(back, x, rtol=1e-11, atol=0)
     for row, zr in enumerate(z[:20]):
         np.testing.assert_allclose(log_det[row], _numerical_log_det(coords, zr), atol=1e-6)
+
+
+def _atom_geometry(lp: LogPosterior, coords: SamplerCoordinates, rng: np.random.Generator
+                   ) -> tuple[AtomGeometry, ...]:
+    """A plateau narrower than the prior's and a ridge of random slopes, per atom column."""
+    out = []
+    for j in coords.atom_columns:
+        width = lp.space.priors[lp.space.names[j]].width
+        ridge = rng.normal(0.0, 0.3, lp.space.ndim) / width
+        ridge[list(coords.atom_columns)] = 0.0
+        out.append(AtomGeometry(width * 0.01, tuple(ridge)))
+    return tuple(out)
+
+
+@pytest.mark.parametrize(("model", "variant", "noise"),
+                         [("pendulum", "release", "gaussian"), ("powerlaw", "table1", "student-t"),
+                          ("small-angle", "scatter-atom", "gaussian")])
+def test_sampler_coordinates_with_an_atom_s_geometry(model, variant, noise):
+    """Effects that may be absent (the default contact time, a scatter with p_zero) under a
+    geometry that scales their plateau and shears the other columns along a ridge: z → x
+    inverts x → z, "absent" stays absent (x below 0) and "present" present, log|det| matches
+    a finite-difference Jacobian, the one-point map equals the batch map, and the density of
+    x is unchanged (the target less log|det| is the posterior)."""
+    lp = LogPosterior.build(_config(variant), model, _data(noise != "gaussian"), noise=noise)
+    plain = SamplerCoordinates(lp.space, lp.data)
+    assert plain.atom_columns  # the default contact time, at least
+    coords = SamplerCoordinates(lp.space, lp.data, _atom_geometry(lp, plain,
+                                                                  np.random.default_rng(3)))
+    x = lp.space.sample_prior(np.random.default_rng(7), 400)
+    x = x[np.isfinite(lp(x))][:40]
+    assert len(x) >= 20
+    z = coords.to_sampler(x)
+    for j in coords.atom_columns:
+        np.testing.assert_array_equal(z[:, j] < 0, x[:, j] < 0)
+        assert np.any(x[:, j] < 0) and np.any(x[:, j] > 0)
+    back, log_det = coords.to_parameters(z)
+    np.testing.assert_allclose(back, x, rtol=1e-9, atol=1e-12)
+    for row, zr in enumerate(z[:15]):
+        np.testing.assert_allclose(log_det[row], _numerical_log_det(coords, zr), atol=1e-5)
+        one = coords.to_parameters_one(zr)
+        np.testing.assert_allclose(one[0], back[row], rtol=1e-12, atol=1e-15)
+        assert one[1] == pytest.approx(log_det[row], abs=1e-9)
+    np.testing.assert_allclose(SamplerTarget(lp, coords)(z) - log_det, lp(back), rtol=1e-12)
+    np.testing.assert_allclose(lp(back), lp(x), rtol=1e-9)
 
 
 @pytest.mark.parametrize("model", ["pendulum", "small-angle"])
@@ -284,7 +330,7 @@ def test_sampler_coordinates_leave_the_posterior_unchanged(noise):
 
 @pytest.mark.parametrize(("model", "variant", "noise"),
                          [(m, v, n) for m, v in COORDINATE_CASES for n in ("gaussian", "student-t")
-                          if not (v == "scatter" and n == "student-t")])  # a ConfigError
+                          if not (v.startswith("scatter") and n == "student-t")])  # ConfigError
 def test_one_point_coordinates_equal_the_batch_map(model, variant, noise):
     """Nested sampling's one-point z → x map equals the batch map, including points the
     batch map sends to NaN (None) and a sampled T0's offset."""

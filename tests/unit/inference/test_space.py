@@ -24,7 +24,7 @@ import pytest
 from scipy import stats
 
 from drumroll.config import parse_config
-from drumroll.distributions import Fixed, HalfNormal, Normal, Uniform
+from drumroll.distributions import Fixed, HalfNormal, Normal, OrZero, Uniform
 from drumroll.errors import ConfigError
 from drumroll.inference.space import DEFAULT_CONTACT_PRIOR, DEFAULT_JITTER_PRIOR, ParameterSpace
 from drumroll.physics import StickGeometry, bounce_sequence
@@ -67,8 +67,10 @@ def test_columns_are_the_sampled_parameters_in_order(model, variant):
     x = space.sample_prior(np.random.default_rng(0), 5)
     values = space.values(x)
     for i, name in enumerate(space.names):
-        np.testing.assert_array_equal(values[name], x[:, i])
-        np.testing.assert_array_equal(space.value(x, name), x[:, i])
+        # a prior with an atom at 0 is sampled through a coordinate: its negative half is 0
+        want = np.maximum(x[:, i], 0.0) if isinstance(space.priors[name], OrZero) else x[:, i]
+        np.testing.assert_array_equal(values[name], want)
+        np.testing.assert_array_equal(space.value(x, name), want)
     for name in fixed:
         assert values[name] == space.priors[name].value == space.value(x, name)
 
@@ -78,7 +80,8 @@ def test_table1_pendulum_by_hand():
     space = ParameterSpace.build(_config("table1"), "pendulum")
     assert space.names == ("alpha", "pivot", "height", "jitter", "contact", "stick_length",
                            "stick_tip")
-    assert space.priors["contact"] == Uniform(low=0.0, high=3e-3)  # the default: 0-3 ms
+    # the default: none or 0-3 ms, at even odds
+    assert space.priors["contact"] == OrZero(Uniform(low=0.0, high=3e-3), p_zero=0.5)
     assert space.priors["stick_radius"] == Fixed(0.0075)
     assert space.priors["release_speed"] == Fixed(0.0)
     assert "t_b" not in space.priors  # the pendulum derives t_B
@@ -96,7 +99,7 @@ def test_default_jitter_and_extra_priors():
     assert space.names == ("alpha", "jitter", "contact", "t0", "nu")  # t_b fixed, extras last
     assert space.extra == ("t0", "nu")
     x = np.array([[0.8, 1e-3, 1e-3, 1.05, 3.0]])
-    want = (math.log(2.0) + stats.loguniform(1e-5, 1e-2).logpdf(1e-3) + math.log(1 / 3e-3)
+    want = (math.log(2.0) + stats.loguniform(1e-5, 1e-2).logpdf(1e-3) + math.log(0.5 / 3e-3)
             + stats.norm(1.0, 0.1).logpdf(1.05)
             + stats.halfnorm(scale=10).logpdf(3.0) - math.log(stats.halfnorm(scale=10).sf(1.0)))
     assert space.log_prior(x)[0] == pytest.approx(want, rel=1e-12)
@@ -109,7 +112,8 @@ def test_log_prior_of_the_paper_set_up_equals_scipy():
     mass to speak of)."""
     space = ParameterSpace.build(_config("table1"), "pendulum")
     refs = [stats.uniform(0.5, 0.5), stats.norm(0.131, 0.002), stats.norm(0.080, 0.003),
-            stats.loguniform(1e-5, 1e-2), stats.uniform(0.0, 3e-3), stats.norm(0.348, 0.001),
+            # the contact time's coordinate: none (below 0) or 0-3 ms at even odds
+            stats.loguniform(1e-5, 1e-2), stats.uniform(-3e-3, 6e-3), stats.norm(0.348, 0.001),
             stats.norm(0.060, 0.001)]
     x = space.sample_prior(np.random.default_rng(1), 200)
     want = sum(ref.logpdf(x[:, i]) for i, ref in enumerate(refs))
@@ -149,6 +153,11 @@ def test_prior_draws_stay_inside_and_follow_each_prior(model, variant):
         prior = space.priors[name]
         lo, hi = prior.support
         assert np.all((draws[:, i] >= lo) & (draws[:, i] <= hi)), name
+        if isinstance(prior, OrZero):  # the default contact time: uniform on [−3, 3] ms
+            assert prior.slab == Uniform(low=0.0, high=3e-3) and prior.p_zero == 0.5
+            result = stats.kstest(draws[:, i], stats.uniform(-3e-3, 6e-3).cdf)
+            assert result.pvalue > 1e-3, name
+            continue
         # the truncated CDF from the family's own kernel is checked against scipy in
         # tests/unit/test_distributions.py; here: the draws follow it
         c_lo = prior.cdf(lo, *prior.param_values)

@@ -235,7 +235,27 @@ def test_a_contact_time_at_zero_says_what_it_does_to_alpha():
     (warning,) = diagnostics(idata, _chain(), None, _settings()).warnings
     assert warning.startswith("powerlaw: contact_ms piles up at the lower end of its prior")
     assert warning.endswith("α and t_B lean low with it, by about 1 sd if the impacts truly "
-                            "have no contact (a simulator's): then say contact_ms = 0")
+                            "have no contact: give the prior an atom at 0 (p_zero = 0.5, as "
+                            "the default does) or say contact_ms = 0")
+
+
+def test_a_contact_time_whose_prior_holds_zero_gives_its_probability_not_a_warning():
+    """Under a prior with an atom at 0 (the default contact time), draws piled at 0 are the
+    answer "no contact": no edge warning, and the summary gives P(τ_c = 0), the share of
+    draws at 0; a quantity whose prior has no atom gets no probability."""
+    posterior = _posterior()
+    rng = np.random.default_rng(6)
+    contact = np.maximum(rng.normal(-0.5, 0.6, (WALKERS, DRAWS)), 0.0)
+    posterior["contact_ms"] = contact
+    prior = {"alpha": rng.uniform(0.5, 1.0, (1, 2000)), "t_b": rng.uniform(0.01, 2.0, (1, 2000)),
+             "jitter_ms": np.exp(rng.uniform(math.log(0.01), math.log(10), (1, 2000))),
+             "contact_ms": np.maximum(rng.uniform(-3.0, 3.0, (1, 2000)), 0.0)}
+    idata = _idata(posterior, prior=prior, sampled=("alpha", "t_b", "jitter_ms", "contact_ms"))
+    assert diagnostics(idata, _chain(), None, _settings()).warnings == ()
+    summary = parameter_summary(idata)
+    assert summary["contact_ms"].probability_zero == pytest.approx(np.mean(contact == 0.0))
+    assert 0.7 < summary["contact_ms"].probability_zero < 0.85  # Φ(0.5 / 0.6) = 0.80
+    assert summary["alpha"].probability_zero is None
 
 
 def test_flight_series_is_the_central_band_of_the_draws(fit):
