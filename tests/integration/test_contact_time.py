@@ -20,8 +20,8 @@ from configs import BALL_CONFIG
 from drumroll.cli.main import main
 from drumroll.config import parse_config
 from drumroll.errors import ConfigError
-from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.evidence import importance_evidence
+from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import SamplerSettings, run_emcee
 from drumroll.inference.settings import estimate_settings
