@@ -64,6 +64,7 @@ from scipy import signal
 from drumroll.audio import read_audio
 from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets import OnsetTable, detect
+from drumroll.onsets.refine import CODEC_SNR_DB, IMPACT_RISE_S
 from drumroll.simulation import Disturbances, HitBank, MeasuredRoom, Room, render, render_hits
 from drumroll.simulation.phone import phone_agc
 
@@ -707,6 +708,37 @@ def list_misses(condition: str, name: str, original: Path, coded: Path,
     return count
 
 
+def impact_rises(reference: dict, folder: Path, bin_s: float = 0.125e-3,
+                 within_s: float = 0.005) -> np.ndarray:
+    """How long each onset of the lossless recordings in ``folder`` (``reference``: name ->
+    onset table) takes to rise to ``refine.CODEC_SNR_DB`` under its peak (s): from the onset,
+    the first ``bin_s`` bin of the sound high-passed as onsets are refined whose power is
+    within that of the loudest bin over the next ``within_s`` (or up to the next onset).
+    ``refine.IMPACT_RISE_S``, the longest an impact's start can hide under a codec's noise,
+    bounds them."""
+    from drumroll.onsets.odf import OdfParams, wide_filter
+
+    out = []
+    for name, table in reference.items():
+        audio = [p for p in folder.glob(name + ".*") if p.suffix.lower() in
+                 (".wav", ".flac", ".ogg", ".mp3")]
+        if not audio:
+            continue
+        x, sr = read_audio(audio[0], check=False)
+        y = wide_filter(OdfParams(), sr).filter.filter(x)[0]
+        b = max(1, round(bin_s * sr))
+        at = np.round(table.time_s * sr).astype(int)
+        ends = np.append(at[1:] - b, y.size)
+        for a, end in zip(at, np.minimum(ends, at + round(within_s * sr)), strict=True):
+            n = (end - a) // b
+            if n < 2:
+                continue
+            power = np.mean(y[a: a + n * b].reshape(n, b) ** 2, axis=1)
+            out.append(np.flatnonzero(power >= power.max() * 10 ** (-CODEC_SNR_DB / 10))[0]
+                       * b / sr)
+    return np.asarray(out)
+
+
 def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None = None,
               misses: bool = False) -> dict[str, dict[str, dict]]:
     """Every recording of each source ``label -> (folder, pattern)`` through every phone
@@ -726,6 +758,12 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                 continue
             rows = {"lossless original": dict(row, found=1.0, found_impacts=1.0,
                                               shift_ms=0.0, offset_ms=0.0, sd_ms=0.0)}
+            rise = impact_rises(reference, folder)
+            if rise.size:
+                print(f"  impact rise (lossless onset to {CODEC_SNR_DB:g} dB under its peak; "
+                      f"refine.IMPACT_RISE_S = {1e3 * IMPACT_RISE_S:g} ms bounds it): median "
+                      f"{1e3 * np.median(rise):.2f} ms, 99 % {1e3 * np.quantile(rise, 0.99):.2f}"
+                      f" ms, longest {1e3 * rise.max():.2f} ms ({rise.size} onsets)", flush=True)
             for condition, (kind, arg) in PHONE_CONDITIONS.items():
                 if conditions and not any(c.lower() in condition.lower() for c in conditions):
                     continue
