@@ -29,7 +29,8 @@ FFmpeg into a temporary file).
 
 Phone recordings (``--phone-only`` runs nothing else, ``--no-phone`` skips them): the corpus
 and the real ping-pong encoded as a phone, a camera or a messaging app would (AAC 128 and
-64 kb/s, Opus 64 and 32 kb/s, MP3 128 kb/s, AMR-NB 12.2 kb/s at 8 kHz, ALAC as a check),
+64 kb/s, a camera's .mp4 and .mov with AAC 128 kb/s beside H.264 video, Opus 64 and 32 kb/s,
+MP3 128 kb/s, AMR-NB 12.2 kb/s at 8 kHz, ALAC as a check),
 resampled to 16 and 8 kHz, and through a phone's automatic gain control (alone and before AAC
 64 kb/s), each scored side by side with the lossless original by the corpus's rules (F1, MAD
 against the truth, first impact found) and onset by onset against the original's onsets: the
@@ -64,6 +65,7 @@ from scipy import signal
 from drumroll.audio import read_audio
 from drumroll.errors import AudioError, DrumrollWarning
 from drumroll.onsets import OnsetTable, detect
+from drumroll.onsets.refine import CODEC_SNR_DB, IMPACT_RISE_S
 from drumroll.simulation import Disturbances, HitBank, MeasuredRoom, Room, render, render_hits
 from drumroll.simulation.phone import phone_agc
 
@@ -547,6 +549,8 @@ PHONE_CONDITIONS = {
     "ALAC .m4a (lossless)": ("encode", "alac"),
     "AAC 128 kb/s .m4a": ("encode", "aac-128"),
     "AAC 64 kb/s .m4a": ("encode", "aac-64"),
+    "camera .mp4, AAC 128 kb/s": ("encode", "mp4-video"),
+    "camera .mov, AAC 128 kb/s": ("encode", "mov-video"),
     "Opus 64 kb/s .webm": ("encode", "opus-64"),
     "Opus 32 kb/s .webm": ("encode", "opus-32"),
     "MP3 128 kb/s": ("encode", "mp3-128"),
@@ -677,17 +681,23 @@ def traced_detect(path: Path):
 
 
 def list_misses(condition: str, name: str, original: Path, coded: Path,
-                within: float = 1e-3) -> int:
+                within: float = 1e-3, truth: Path | None = None) -> int:
     """Print every onset of the lossless ``original`` that the ``coded`` file does not give
     within ``within`` (s): its number, time, amplitude and SNR (as the original has them),
-    its shift (to the nearest coded onset), and the first step of the extractor after which
+    its shift (to the nearest coded onset), the first step of the extractor after which
     the original has it (within ``within``) and the coded file does not ("tracker": the
     candidates and the tracker; a stage of ``detector.STAGES`` otherwise: one that moved the
-    coded file's onset away, or that brought the original's to it and not the coded one).
-    Returns how many."""
+    coded file's onset away, or that brought the original's to it and not the coded one),
+    and, with the recording's ``truth`` file, how far the original's onset is from the
+    nearest true impact (the recording's constant latency taken out, as
+    :func:`score_folder` does): a miss where the original is itself off the truth is a
+    sound whose start the extractor cannot tell, not a codec's doing alone. Returns how
+    many."""
     ref, ref_log = traced_detect(original)
     table, log = traced_detect(coded)
     steps = dict(ref_log)
+    true_t = read_truth(truth)[1] if truth is not None else np.zeros(0)
+    latency = constant_latency(ref.time_s, true_t) if true_t.size else 0.0
 
     def nearest(times: np.ndarray, t: float) -> float:
         return float(times[np.argmin(np.abs(times - t))]) if times.size else np.inf
@@ -701,10 +711,43 @@ def list_misses(condition: str, name: str, original: Path, coded: Path,
         parted = next((stage for stage, times in log if abs(nearest(times, t) - t) > within
                        and abs(nearest(steps.get(stage, np.zeros(0)), t) - t) <= within),
                       "the table")
+        off = (f", original - truth {1e3 * (t - latency - nearest(true_t, t - latency)):+.3f}"
+               " ms" if true_t.size else "")
         print(f"    miss {condition:24s} {name[:26]:26s} #{i:<3d} {t:8.4f} s amplitude "
               f"{ref.amplitude[i]:.4f} SNR {ref.snr_db[i]:6.1f} dB shift {1e3 * shift:+8.3f} ms"
-              f", parted by {parted}")
+              f", parted by {parted}{off}")
     return count
+
+
+def impact_rises(reference: dict, folder: Path, bin_s: float = 0.125e-3,
+                 within_s: float = 0.005) -> np.ndarray:
+    """How long each onset of the lossless recordings in ``folder`` (``reference``: name ->
+    onset table) takes to rise to ``refine.CODEC_SNR_DB`` under its peak (s): from the onset,
+    the first ``bin_s`` bin of the sound high-passed as onsets are refined whose power is
+    within that of the loudest bin over the next ``within_s`` (or up to the next onset).
+    ``refine.IMPACT_RISE_S``, the longest an impact's start can hide under a codec's noise,
+    bounds them."""
+    from drumroll.onsets.odf import OdfParams, wide_filter
+
+    out = []
+    for name, table in reference.items():
+        audio = [p for p in folder.glob(name + ".*") if p.suffix.lower() in
+                 (".wav", ".flac", ".ogg", ".mp3")]
+        if not audio:
+            continue
+        x, sr = read_audio(audio[0], check=False)
+        y = wide_filter(OdfParams(), sr).filter.filter(x)[0]
+        b = max(1, round(bin_s * sr))
+        at = np.round(table.time_s * sr).astype(int)
+        ends = np.append(at[1:] - b, y.size)
+        for a, end in zip(at, np.minimum(ends, at + round(within_s * sr)), strict=True):
+            n = (end - a) // b
+            if n < 2:
+                continue
+            power = np.mean(y[a: a + n * b].reshape(n, b) ** 2, axis=1)
+            out.append(np.flatnonzero(power >= power.max() * 10 ** (-CODEC_SNR_DB / 10))[0]
+                       * b / sr)
+    return np.asarray(out)
 
 
 def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None = None,
@@ -726,6 +769,12 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                 continue
             rows = {"lossless original": dict(row, found=1.0, found_impacts=1.0,
                                               shift_ms=0.0, offset_ms=0.0, sd_ms=0.0)}
+            rise = impact_rises(reference, folder)
+            if rise.size:
+                print(f"  impact rise (lossless onset to {CODEC_SNR_DB:g} dB under its peak; "
+                      f"refine.IMPACT_RISE_S = {1e3 * IMPACT_RISE_S:g} ms bounds it): median "
+                      f"{1e3 * np.median(rise):.2f} ms, 99 % {1e3 * np.quantile(rise, 0.99):.2f}"
+                      f" ms, longest {1e3 * rise.max():.2f} ms ({rise.size} onsets)", flush=True)
             for condition, (kind, arg) in PHONE_CONDITIONS.items():
                 if conditions and not any(c.lower() in condition.lower() for c in conditions):
                     continue
@@ -750,7 +799,8 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                             original = [p for p in folder.glob(name + ".*") if p.suffix.lower()
                                         in (".wav", ".flac", ".ogg", ".mp3")]
                             if coded and original:
-                                list_misses(condition, name, original[0], coded[0])
+                                list_misses(condition, name, original[0], coded[0],
+                                            truth=folder / f"{name}.truth.json")
                 total, found, raw, centred = onset_shifts(
                     {name: table.time_s for name, table in reference.items()}, tables)
                 impacts, found_impacts = onset_shifts(audible_onsets(reference, folder),

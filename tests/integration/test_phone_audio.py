@@ -117,13 +117,16 @@ def test_lossless_containers_give_the_wavs_onsets(folder, pingpong, wav_onsets, 
 
 #: Per preset: (least fraction of the WAV's onsets found within 1 ms, as measured here).
 #: The issue asks for 95 %. A lossy file's onsets are timed where the sound steps out of the
-#: codec's pre-echo (:func:`drumroll.onsets.refine.out_of_codec_noise`), which brings most
-#: loud impacts back from 1-3 ms early; still lost or moved: the two loudest impacts whose
-#: pre-echo is as long as their own first stage, and the faint last bounces at the end of
-#: the roll, under the codec's noise. Measured on the ping-pong: AAC 128 kb/s 49 of 55,
-#: Opus 64 kb/s 48 of 55 (benchmarks/onsets.py --phone-only gives the figures over the
-#: corpus too). The bounds below catch a regression.
-LOSSY = {"aac-128": 0.85, "mp4-video": 0.85, "mov-video": 0.85, "opus-64": 0.85}
+#: codec's pre-echo (:func:`drumroll.onsets.refine.out_of_codec_noise`), no further ahead of
+#: it than an impact's sound takes to rise (:data:`~drumroll.onsets.refine.IMPACT_RISE_S`),
+#: which brings the loud impacts back from 1-3 ms early. Measured on the ping-pong: AAC
+#: 128 kb/s 49 of 55 (lost or moved: two loud impacts whose pre-echo is only 5-12 dB under
+#: their first 2 ms, and the four faint bounces after the 50 referenced ones, which the WAV
+#: itself finds barely above the significance threshold), Opus 64 kb/s 51 of 55 (faint
+#: bounces timed at an earlier step of their sound; the loud ones were 1.0-1.2 ms early,
+#: 46 of 55, before the rise bound). benchmarks/onsets.py --phone-only gives the figures
+#: over the corpus too. The bounds below catch a regression.
+LOSSY = {"aac-128": 0.85, "mp4-video": 0.85, "mov-video": 0.85, "opus-64": 0.9}
 
 
 @pytest.mark.parametrize("preset", list(LOSSY))

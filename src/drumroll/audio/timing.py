@@ -27,33 +27,34 @@ from drumroll.audio.io import AudioInfo
 #: condition                     MAD (ms)  sd (ms)  moved > 1 ms / lost
 #: ============================  ========  =======  ===================
 #: AAC 128 kb/s .m4a             0.068     0.101    0.079
-#: AAC 64 kb/s .m4a              0.227     0.336    0.290
-#: Opus 64 kb/s .webm            0.101     0.150    0.099
-#: Opus 32 kb/s .webm            0.312     0.462    0.282
-#: MP3 128 kb/s                  0.091     0.134    0.091
-#: Vorbis q0.5 .ogg (110 kb/s)   0.136     0.202    0.183
-#: AMR-NB 12.2 kb/s, 8 kHz .3gp  0.247     0.366    0.694
+#: AAC 64 kb/s .m4a              0.181     0.269    0.246
+#: Opus 64 kb/s .webm            0.097     0.144    0.087
+#: Opus 32 kb/s .webm            0.217     0.322    0.238
+#: MP3 128 kb/s                  0.091     0.134    0.111
+#: Vorbis q0.5 .ogg (110 kb/s)   0.135     0.201    0.111
+#: AMR-NB 12.2 kb/s, 8 kHz .3gp  0.264     0.391    0.675
 #: ============================  ========  =======  ===================
 #:
 #: MP3 and Vorbis below 96 kb/s were not measured: they get the low-rate rows of AAC and Opus,
-#: the larger; AMR-WB (no encoder in PyAV's wheels) gets AMR-NB's. The MAD describes the
-#: bulk of the onsets; the last column is the tail, which a ``sigma_s`` cannot describe
-#: (faint bounces in the ring of the ones before, whose first stage the codec's noise
-#: hides, and loud impacts whose pre-echo is too long or too loud to be told from their
+#: the larger in each column; AMR-WB (no encoder in PyAV's wheels) gets AMR-NB's. The MAD
+#: describes the bulk of the onsets; the last column is the tail, which a ``sigma_s`` cannot
+#: describe (faint bounces in the ring of the ones before, whose first stage the codec's
+#: noise hides, and loud impacts whose pre-echo is too long or too loud to be told from their
 #: own sound; :func:`drumroll.onsets.refine.out_of_codec_noise` takes the rest of the
-#: pre-echo out): the warning states it, and ``[likelihood] noise = "student-t"`` is made
-#: for it.
+#: pre-echo out, the onset placed within an impact's rise,
+#: :data:`~drumroll.onsets.refine.IMPACT_RISE_S`, of where its sound steps out of it): the
+#: warning states it, and ``[likelihood] noise = "student-t"`` is made for it.
 CODEC_FLOORS: tuple[tuple[str, int, float, float], ...] = (
     ("aac", 96_000, 0.11e-3, 0.08),
-    ("aac", 0, 0.34e-3, 0.29),
-    ("opus", 48_000, 0.15e-3, 0.10),
-    ("opus", 0, 0.47e-3, 0.28),
-    ("mp3", 96_000, 0.14e-3, 0.09),
-    ("mp3", 0, 0.47e-3, 0.29),
-    ("vorbis", 96_000, 0.21e-3, 0.18),
-    ("vorbis", 0, 0.47e-3, 0.29),
-    ("amrnb", 0, 0.37e-3, 0.69),
-    ("amrwb", 0, 0.37e-3, 0.69),
+    ("aac", 0, 0.27e-3, 0.25),
+    ("opus", 48_000, 0.15e-3, 0.09),
+    ("opus", 0, 0.33e-3, 0.24),
+    ("mp3", 96_000, 0.14e-3, 0.11),
+    ("mp3", 0, 0.33e-3, 0.25),
+    ("vorbis", 96_000, 0.21e-3, 0.11),
+    ("vorbis", 0, 0.33e-3, 0.25),
+    ("amrnb", 0, 0.40e-3, 0.68),
+    ("amrwb", 0, 0.40e-3, 0.68),
 )
 
 #: An unmeasured lossy codec (AC-3, WMA, GSM, ...) is given the largest floor of the

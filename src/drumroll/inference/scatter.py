@@ -152,8 +152,10 @@ def scatter_marginal(data: OnsetData, impacts: NDArray, covariance: NDArray
         parts = []
         for row in good:
             try:
-                parts.append((row, _bordered(data, impacts[row:row + 1],
-                                             covariance[row:row + 1])))
+                # The rows as an index array (a scalar index would take a length-1 result
+                # as one element: a ValueError).
+                parts.append((np.array([row]), _bordered(data, impacts[row:row + 1],
+                                                         covariance[row:row + 1])))
             except np.linalg.LinAlgError:
                 continue
     n = data.n_onsets

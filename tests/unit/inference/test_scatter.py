@@ -220,3 +220,22 @@ def test_covariance_equals_g_g_transpose_written_out(law):
     np.testing.assert_allclose(onset_covariance(data, slopes, jitter, scatter, propagation),
                                _written_out(data, slopes, jitter, scatter, propagation),
                                rtol=1e-12, atol=1e-22)
+
+
+def test_a_row_whose_covariance_is_not_positive_definite_is_impossible_not_an_error():
+    """The batch's Cholesky fails on one row's Σ (a sampler's proposal): that row's
+    likelihood is -inf and the others' are what they are alone (the one-by-one fallback once
+    ended in a ValueError, an internal error of `estimate` on the real ping-pong's .m4a with
+    the restitution's scatter)."""
+    data, impacts, slopes = _roll(seed=2)
+    covariance = onset_covariance(data, slopes, np.array([1e-4, 3e-4, 1e-4]),
+                                  np.array([0.003, 0.01, 0.0]))
+    alone = [scatter_marginal(data, impacts[r:r + 1], covariance[r:r + 1]) for r in range(3)]
+    broken = covariance.copy()
+    broken[1] = -broken[1]
+    log_like, t0_mean, t0_sd = scatter_marginal(data, impacts, broken)
+    assert log_like[1] == -np.inf and np.isnan(t0_mean[1]) and np.isnan(t0_sd[1])
+    for r in (0, 2):
+        assert log_like[r] == pytest.approx(alone[r][0][0], rel=1e-12)
+        assert t0_mean[r] == pytest.approx(alone[r][1][0], rel=1e-12)
+        assert t0_sd[r] == pytest.approx(alone[r][2][0], rel=1e-12)
