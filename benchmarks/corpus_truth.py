@@ -5,8 +5,9 @@ integration of the rigid pendulum (another simulator than ours), in measured roo
 impacts are instantaneous (0.1 ms of timing scatter, no contact time). Each drumstick roll is
 estimated with the exact pendulum and the paper's kind of priors centred on its set-up
 (d ± 2 mm, h ± 3 mm, the stick's lengths ± 1 mm, the release speed the corpus used, Student-t
-noise), once with the default contact-time prior (uniform over 0–3 ms) and once with the
-contact time fixed at 0 (``contact_ms = 0``, the truth of this corpus), and α and t_B are
+noise), once with the default contact-time prior (none, or uniform over 0–3 ms, at even
+odds) and once with the contact time fixed at 0 (``contact_ms = 0``, the truth of this
+corpus), and α and t_B are
 compared with the truth: each fit's z = (mean − truth) / sd, whether the 90 % highest-density
 interval holds the truth, and over all rolls the coverage, the mean z and the spread of z.
 
@@ -30,7 +31,7 @@ from drumroll.config import parse_config
 
 CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
 #: The contact-time priors compared: the default, and none (the corpus's truth).
-CONTACTS = {"default (U 0-3 ms)": None, "fixed at 0": 0.0}
+CONTACTS = {"default (0 or U 0-3 ms)": None, "fixed at 0": 0.0}
 
 
 def roll_config(truth: dict, contact_ms: float | None):
