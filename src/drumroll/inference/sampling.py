@@ -347,9 +347,13 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     differential-evolution moves of :func:`moves` the autocorrelation time falls from
     ~90 to ~25–40 steps. Every diagnostic (τ, R-hat, ESS) and every output is computed on the
     model's own parameters. The walkers start in a ball around the highest point found
-    (:func:`find_start`). At each check ``3 τ_max`` steps are discarded as burn-in and the
-    rest thinned by ``τ_min / 3`` (which costs a few percent of ESS); the targets are checked
-    on exactly these draws, and the run stops at the first check that meets them.
+    (:func:`find_start`). Where an effect may be absent (an atom at 0, the default contact
+    time), they first walk one check's worth of steps with it present, whose draws set the
+    coordinates in which "absent" and "present" mix (:func:`atom_geometry`); those steps are
+    burn-in, counted in ``n_steps`` and ``burn``. At each check ``3 τ_max`` steps are
+    discarded as burn-in and the rest thinned by ``τ_min / 3`` (which costs a few percent of
+    ESS); the targets are checked on exactly these draws, and the run stops at the first
+    check that meets them.
 
     Parameters
     ----------
