@@ -138,8 +138,8 @@ def _fit_record(result: Any, truth: dict[str, float], rank_draws: int,
         stats = parameters[key]
         record["rank"][key] = rank_statistic(value, values[at_chain, at_draw], rng)
         record["mean"][key], record["sd"][key] = stats.mean, stats.sd
-        record["covered_50"][key] = central_interval_covers(value, values, 0.5)
-        record["covered_90"][key] = central_interval_covers(value, values, 0.9)
+        record["covered_50"][key] = central_interval_covers(value, values, 0.5, rng)
+        record["covered_90"][key] = central_interval_covers(value, values, 0.9, rng)
     diagnostics = result.summary.diagnostics[model]
     ess = [v for v in (diagnostics.ess_bulk_min, diagnostics.ess_tail_min) if v is not None]
     adequacy = result.summary.models[model].adequacy

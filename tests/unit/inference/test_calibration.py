@@ -131,6 +131,34 @@ def test_central_interval_coverage_uses_equal_tails():
     assert not central_interval_covers(20.0, draws, 0.9)
 
 
+def test_coverage_of_an_atom_at_zero_is_nominal():
+    """A quantity that is 0 with probability p₀ a priori (an effect that may be absent):
+    θ = 0 or ~ U(0, 1) at even odds, y ~ N(θ, 0.3²); the exact posterior drawn, ties at the
+    truth split at random: a central interval covers in its nominal share of simulations
+    (counting the tied draws whole covered a true 0 in nearly every one)."""
+    rng = np.random.default_rng(12)
+    n, size, sd = 4000, 400, 0.3
+    grid = np.linspace(0.0, 1.0, 2001)
+    covered = {0.5: [], 0.9: []}
+    whole = []
+    for _ in range(n):
+        theta = 0.0 if rng.random() < 0.5 else rng.random()
+        y = theta + sd * rng.normal()
+        slab = np.exp(-0.5 * ((y - grid) / sd) ** 2)
+        slab_mass = np.trapezoid(slab, grid)
+        p_zero = np.exp(-0.5 * (y / sd) ** 2) / (np.exp(-0.5 * (y / sd) ** 2) + slab_mass)
+        cdf = np.cumsum(slab) / slab.sum()
+        draws = np.where(rng.random(size) < p_zero, 0.0,
+                         np.interp(rng.random(size), cdf, grid))
+        for prob in covered:
+            covered[prob].append(central_interval_covers(theta, draws, prob, rng))
+        low, high = np.quantile(draws, [0.25, 0.75])
+        whole.append(low <= theta <= high)
+    for prob, hits in covered.items():
+        assert abs(np.mean(hits) - prob) < 3 * math.sqrt(prob * (1 - prob) / n), prob
+    assert np.mean(whole) > 0.6  # the quantiles' own interval, ties counted whole
+
+
 def _conjugate(width: float, n: int = 1000, draws: int = 99, seed: int = 6):
     """θ ~ N(0, 1), y ~ N(θ, 1): the posterior is N(y/2, 1/2); ``width`` scales its sd (1:
     exact). Per simulation: rank among L draws, coverage, z, contraction."""
