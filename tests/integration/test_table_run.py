@@ -152,6 +152,40 @@ def test_joint_posterior_is_the_sum_of_the_runs(joint_folder):
     assert joint(z[0]) == pytest.approx(joint(z[:1])[0])
 
 
+def test_a_joint_fit_shares_its_parameters_whatever_the_runs_atoms(joint_folder):
+    """Each run's coordinates with the geometry of its contact time's atom (a plateau and a
+    ridge along which every other column moves with the contact): the runs still share one
+    α, value for value, and the joint density is still the sum of the runs' posteriors."""
+    from drumroll.inference.coordinates import AtomGeometry, SamplerCoordinates
+    from drumroll.inference.likelihood import OnsetData
+    from drumroll.inference.posterior import LogPosterior
+    from drumroll.table.joint import JointPosterior
+
+    runs = load_runs(joint_folder / "runs.toml")
+    parts, coordinates = [], []
+    for run in runs.runs:
+        part = LogPosterior.build(run.config, "pendulum",
+                                  OnsetData.from_arrays(np.loadtxt(run.source)))
+        plain = SamplerCoordinates(part.space, part.data)
+        (j,) = plain.atom_columns
+        ridge = np.full(part.space.ndim, -2.0)  # α among the columns the contact moves
+        ridge[j] = 0.0
+        coordinates.append(SamplerCoordinates(part.space, part.data,
+                                              (AtomGeometry(1e-4, tuple(ridge)),)))
+        parts.append(part)
+    joint = JointPosterior(parts, ["a", "b"], ("alpha",), coordinates)
+    z = joint.space.sample_prior(np.random.default_rng(1), 50)
+    xa, xb = joint.run_parameters(z)
+    np.testing.assert_array_equal(xa[:, 0], xb[:, 0])
+    assert np.any(xa[:, 1] != joint.split(z)[0][:, 1])  # the pivot did follow the contact
+    expected = parts[0](xa) + parts[1](xb) - parts[0].space.priors["alpha"].logpdf(xa[:, 0])
+    expected += sum(c.to_parameters(zi)[1] for c, zi in zip(joint.coordinates, joint.split(z),
+                                                             strict=True))
+    finite = np.isfinite(expected)
+    assert finite.sum() > 10
+    np.testing.assert_allclose(joint(z)[finite], expected[finite], rtol=1e-12)
+
+
 @pytest.mark.slow
 def test_joint_table(joint_folder, capsys):
     assert main(["table", str(joint_folder / "runs.toml"), "--workers", "2", "-q",

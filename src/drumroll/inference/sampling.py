@@ -248,6 +248,41 @@ class _SlabTarget:
         return density
 
 
+def _present_walk(target: SamplerTarget, start: NDArray, steps: int, seed: int
+                  ) -> tuple[SamplerCoordinates, NDArray]:
+    """Walk from ``start`` (z, ``(walkers, ndim)``) for ``steps`` with every effect that may
+    be absent present (:class:`_SlabTarget`); the second half of the walk shows how the
+    posterior moves with each effect's size (:func:`atom_geometry`). Returns the coordinates
+    with that geometry and where the walkers ended, as parameters x."""
+    coordinates = target.coordinates
+    start = start.copy()
+    start[:, coordinates.atom_columns] = np.abs(start[:, coordinates.atom_columns])
+    walk = ensemble_sampler(_SlabTarget(target), start.shape[0], start.shape[1], seed)
+    walk.run_mcmc(start, steps, progress=False)
+    present = coordinates.to_parameters(walk.get_last_sample().coords)[0]
+    geometry = atom_geometry(coordinates, walk.get_chain(discard=steps // 2))
+    return replace(coordinates, atoms=geometry), present
+
+
+def sampler_coordinates(log_posterior: LogPosterior, settings: SamplerSettings
+                        ) -> SamplerCoordinates:
+    """The coordinates :func:`run_emcee` samples ``log_posterior`` in with ``settings``,
+    the geometry of its effects that may be absent included (its start search and first walk
+    with them present, as the run makes them): for a sampler of several posteriors at once (a
+    joint fit, :mod:`drumroll.table.joint`), whose own run sees none of their atoms."""
+    coordinates = SamplerCoordinates(log_posterior.space, getattr(log_posterior, "data", None))
+    if not coordinates.atom_columns:
+        return coordinates
+    rng = np.random.default_rng(settings.seed)
+    target = SamplerTarget(log_posterior, coordinates)
+    walkers = max(settings.walkers, 2 * log_posterior.space.ndim + 2)
+    mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
+    start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
+    seed = int(np.random.SeedSequence([settings.seed, 1]).generate_state(2)[1])
+    return _present_walk(target, start, min(settings.check_every, settings.max_steps // 2),
+                         seed)[0]
+
+
 def _climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int = 6
            ) -> tuple[NDArray, float]:
     """L-BFGS-B from ``start`` inside the priors' box (see :func:`find_start`): the point
@@ -385,17 +420,10 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     seeds = np.random.SeedSequence([settings.seed, 1]).generate_state(2)
     first = 0  # steps taken before the chain that is kept (the atoms' first phase)
     if coordinates.atom_columns:
-        # Effects that may be absent: the walkers first sample with every effect present, for
-        # one check's worth of steps; the second half of that walk shows how the posterior
-        # moves with each effect's size, which sets the coordinates that let "absent" and
-        # "present" mix (atom_geometry). Those steps are burn-in: the chain kept starts after.
+        # Effects that may be absent: a first walk with every effect present sets the
+        # coordinates that let "absent" and "present" mix; its steps are burn-in.
         first = min(settings.check_every, settings.max_steps // 2)
-        start[:, coordinates.atom_columns] = np.abs(start[:, coordinates.atom_columns])
-        slab = ensemble_sampler(_SlabTarget(target), walkers, ndim, int(seeds[1]))
-        slab.run_mcmc(start, first, progress=False)
-        present = coordinates.to_parameters(slab.get_last_sample().coords)[0]
-        coordinates = replace(coordinates, atoms=atom_geometry(
-            coordinates, slab.get_chain(discard=first // 2)))
+        coordinates, present = _present_walk(target, start, first, int(seeds[1]))
         target = SamplerTarget(log_posterior, coordinates)
         start = coordinates.to_sampler(present)
         if progress is not None:
