@@ -126,6 +126,18 @@ def joint_folder(tmp_path_factory) -> Path:
     return path
 
 
+def _assert_sum_of_runs(joint, parts, z: np.ndarray) -> None:
+    """The joint density at ``z`` is the runs' posteriors summed, α's prior once: in sampler
+    coordinates, so each run's log Jacobian (h via q, the atom's plateau) is added."""
+    xa, xb = joint.run_parameters(z)
+    expected = parts[0](xa) + parts[1](xb) - parts[0].space.priors["alpha"].logpdf(xa[:, 0])
+    expected += sum(c.to_parameters(zi)[1] for c, zi in zip(joint.coordinates, joint.split(z),
+                                                             strict=True))
+    finite = np.isfinite(expected)
+    assert finite.sum() > 10
+    np.testing.assert_allclose(joint(z)[finite], expected[finite], rtol=1e-12)
+
+
 def test_joint_posterior_is_the_sum_of_the_runs(joint_folder):
     from drumroll.inference.likelihood import OnsetData
     from drumroll.inference.posterior import LogPosterior
@@ -142,13 +154,7 @@ def test_joint_posterior_is_the_sum_of_the_runs(joint_folder):
     z = joint.space.sample_prior(np.random.default_rng(0), 50)
     xa, xb = joint.run_parameters(z)
     np.testing.assert_array_equal(xa[:, 0], xb[:, 0])  # one alpha
-    expected = parts[0](xa) + parts[1](xb) - parts[0].space.priors["alpha"].logpdf(xa[:, 0])
-    # the joint density is in sampler coordinates: add each run's log Jacobian (h via q)
-    expected += sum(c.to_parameters(zi)[1] for c, zi in zip(joint.coordinates, joint.split(z),
-                                                             strict=True))
-    finite = np.isfinite(expected)
-    assert finite.sum() > 10
-    np.testing.assert_allclose(joint(z)[finite], expected[finite], rtol=1e-12)
+    _assert_sum_of_runs(joint, parts, z)
     assert joint(z[0]) == pytest.approx(joint(z[:1])[0])
 
 
@@ -178,12 +184,7 @@ def test_a_joint_fit_shares_its_parameters_whatever_the_runs_atoms(joint_folder)
     xa, xb = joint.run_parameters(z)
     np.testing.assert_array_equal(xa[:, 0], xb[:, 0])
     assert np.any(xa[:, 1] != joint.split(z)[0][:, 1])  # the pivot did follow the contact
-    expected = parts[0](xa) + parts[1](xb) - parts[0].space.priors["alpha"].logpdf(xa[:, 0])
-    expected += sum(c.to_parameters(zi)[1] for c, zi in zip(joint.coordinates, joint.split(z),
-                                                             strict=True))
-    finite = np.isfinite(expected)
-    assert finite.sum() > 10
-    np.testing.assert_allclose(joint(z)[finite], expected[finite], rtol=1e-12)
+    _assert_sum_of_runs(joint, parts, z)
 
 
 @pytest.mark.slow
