@@ -107,17 +107,17 @@ class Chain:
 
 def initial_ball(log_posterior: LogPosterior, centre: NDArray, walkers: int,
                  rng: np.random.Generator) -> NDArray:
-    """Walkers in a small ball around ``centre`` (parameters x), each inside the posterior's
-    typical set: the common start of ``benchmarks/estimate.py``'s sampler comparison.
-    :func:`run_emcee` starts at the posterior's local scale instead (:func:`local_ball`),
-    with the same pull-back (:func:`_pull_back`).
+    """Walkers in a small ball around ``centre``, each inside the posterior's typical set.
 
     The ball's width starts at 1e-4 of each prior's spread, which is small only where the
     prior is not much wider than the posterior: with t_B ~ U(0.01, 20) s it put walkers tens
     of posterior sds out (80 nats below the mode), and some were still walking in after a
     burn-in of 3 τ, their draws kept (PSIS-LOO then flagged 12 of 15 onsets of table2_h50).
     A walker is pulled halfway back to the centre while its log density lies further below
-    the centre's than a Gaussian posterior's would in 99.9 % of draws (χ²_ndim / 2)."""
+    the centre's than a Gaussian posterior's would in 99.9 % of draws (χ²_ndim / 2).
+
+    :func:`run_emcee` now starts its walkers at the posterior's local scale instead
+    (:func:`local_ball`), with the same pull-back."""
     prior_spread = np.std(log_posterior.space.sample_prior(rng, 4000), axis=0)
     width = np.where(prior_spread > 0, 1e-4 * prior_spread, 1e-8)
     ball = centre + width * rng.standard_normal((walkers, centre.size))

@@ -226,31 +226,6 @@ def test_walkers_start_at_the_local_scale_inside_the_typical_set():
     assert np.all(np.std(ball, axis=0) > 0)
 
 
-def test_local_scale_is_the_conditional_sd_of_a_gaussian_and_the_scale_of_an_exponential_wall():
-    """Against closed forms: a correlated Gaussian's conditional sd along each column is
-    1 / sqrt(precision_ii), not its marginal sd; a density e^(−z/λ) on z ≥ 0 (−inf below,
-    the start on its wall) has scale λ on the allowed side; a column far wider than its
-    prior's spread is capped there."""
-    from drumroll.inference.sampling import local_scale
-
-    covariance = np.array([[1.0, 0.9, 0.0], [0.9, 1.0, 0.0], [0.0, 0.0, 4e-6]])
-    precision = np.linalg.inv(covariance)
-    wall = 3e-4
-
-    def density(z):
-        gaussian = -0.5 * np.einsum("bi,ij,bj->b", z[:, :3], precision, z[:, :3])
-        return np.where(z[:, 3] >= 0.0, gaussian - z[:, 3] / wall, -np.inf)
-
-    cap = np.array([10.0, 10.0, 1.0, 1.0])
-    scale, side, exponential = local_scale(density, np.zeros(4), cap)
-    np.testing.assert_allclose(scale[:3], 1.0 / np.sqrt(np.diag(precision)), rtol=1e-4)
-    assert scale[0] < 0.5 * math.sqrt(covariance[0, 0])  # conditional, not marginal
-    np.testing.assert_allclose(scale[3], wall, rtol=1e-3)
-    assert list(side) == [0, 0, 0, 1] and list(exponential) == [False, False, False, True]
-    wide, _, _ = local_scale(density, np.zeros(4), np.array([0.1, 0.1, 1.0, 1.0]))
-    np.testing.assert_allclose(wide[:2], 0.1)
-
-
 def test_start_search_reaches_the_top_when_the_posterior_leans_on_a_prior_edge():
     """The ping-pong roll's power law: on the way up, the climbs cross regions where the
     contact time sits at 0 or the jitter at its prior's 10 ms, edges on which an unbounded
