@@ -114,98 +114,20 @@ def initial_ball(log_posterior: LogPosterior, centre: NDArray, walkers: int,
     of posterior sds out (80 nats below the mode), and some were still walking in after a
     burn-in of 3 τ, their draws kept (PSIS-LOO then flagged 12 of 15 onsets of table2_h50).
     A walker is pulled halfway back to the centre while its log density lies further below
-    the centre's than a Gaussian posterior's would in 99.9 % of draws (χ²_ndim / 2).
-
-    :func:`run_emcee` now starts its walkers at the posterior's local scale instead
-    (:func:`local_ball`), with the same pull-back."""
+    the centre's than a Gaussian posterior's would in 99.9 % of draws (χ²_ndim / 2)."""
     prior_spread = np.std(log_posterior.space.sample_prior(rng, 4000), axis=0)
     width = np.where(prior_spread > 0, 1e-4 * prior_spread, 1e-8)
     ball = centre + width * rng.standard_normal((walkers, centre.size))
-    return _pull_back(log_posterior, centre, ball)
-
-
-def _pull_back(density: Callable[[NDArray], NDArray], centre: NDArray, ball: NDArray
-               ) -> NDArray:
-    """``ball`` with each walker pulled halfway back to ``centre`` while its ``density`` lies
-    further below the centre's than a Gaussian posterior's would in 99.9 % of draws
-    (χ²_ndim / 2); a walker still outside the allowed region after 100 halvings is put on
-    the centre."""
     # χ²_ndim's 0.999 quantile over 2 (scipy.special: scipy.stats stays unimported at start-up).
-    floor = float(density(centre[None])[0]) - special.gammaincinv(0.5 * centre.size, 0.999)
+    floor = float(log_posterior(centre[None])[0]) - special.gammaincinv(0.5 * centre.size, 0.999)
     for _ in range(100):
-        values = density(ball)
-        bad = ~np.isfinite(values) | (values < floor)
+        density = log_posterior(ball)
+        bad = ~np.isfinite(density) | (density < floor)
         if not bad.any():
             return ball
         ball[bad] = centre + 0.5 * (ball[bad] - centre)
-    ball[~np.isfinite(density(ball))] = centre
+    ball[~np.isfinite(log_posterior(ball))] = centre
     return ball
-
-
-def local_scale(density: Callable[[NDArray], NDArray], centre: NDArray, cap: NDArray
-                ) -> tuple[NDArray, NDArray, NDArray]:
-    """The posterior's local scale along each column at ``centre`` (z), from one batched call
-    of ``density`` at centre ± h, ± 2h per column (h = 1e-4 ``cap``), and the side the
-    walkers may go: 0 both, +1 / −1 only up / down (the centre sits on a bound of the
-    allowed region, such as a contact time's wall at 0, where the other side is −inf).
-
-    * Both sides allowed: the conditional sd 1 / sqrt(−∂²log p/∂z²).
-    * One side: the exponential scale 1 / |∂log p/∂z| where the density falls away from the
-      wall, else the half-Gaussian's 1 / sqrt(−∂²log p/∂z²), one-sided differences into the
-      allowed region. Not the smaller of the two: the small-angle model's contact time on
-      table2_h80 is held at 2e-5 s by its curvature with the other columns fixed, while its
-      slope's 3e-4 s is nearer the 4e-4 s its walkers spread to (the first walk hit its
-      250-step cap on 10 of 60 seeds, from the curvature's scale on 25 of 55, from a ball
-      10⁻⁴ of the priors' spread wide on every one).
-
-    Never wider than ``cap`` (the prior's spread in z); where neither applies (a flat or
-    convex column, the centre itself outside), 1e-4 ``cap``. Returns the scales, the sides
-    and whether each column's scale is the exponential one."""
-    ndim = centre.size
-    h = 1e-4 * cap
-    step = np.diag(h)
-    values = density(centre + np.concatenate([np.zeros((1, ndim)), step, -step,
-                                              2.0 * step, -2.0 * step]))
-    f0 = values[0]
-    up, down = values[1:ndim + 1], values[ndim + 1:2 * ndim + 1]
-    up2, down2 = values[2 * ndim + 1:3 * ndim + 1], values[3 * ndim + 1:]
-    scale, side = 1e-4 * cap, np.zeros(ndim, int)
-    exponential = np.zeros(ndim, bool)
-    if not np.isfinite(f0):
-        return scale, side, exponential
-    with np.errstate(invalid="ignore", divide="ignore"):
-        both = np.isfinite(up) & np.isfinite(down)
-        curvature = (up + down - 2.0 * f0) / h**2
-        ok = both & (curvature < 0)
-        scale = np.where(ok, 1.0 / np.sqrt(np.abs(curvature)), scale)
-        for sign, near, far in ((1, up, up2), (-1, down, down2)):
-            one = ~both & np.isfinite(near)
-            slope = (near - f0) / h  # into the allowed region
-            bend = (far - 2.0 * near + f0) / h**2
-            by_slope = np.where(one & (slope < 0), 1.0 / np.abs(slope), np.inf)
-            by_bend = np.where(one & np.isfinite(far) & (bend < 0),
-                               1.0 / np.sqrt(np.abs(bend)), np.inf)
-            best = np.where(np.isfinite(by_slope), by_slope, by_bend)
-            found = one & np.isfinite(best)
-            scale = np.where(found, best, scale)
-            exponential |= found & np.isfinite(by_slope)
-            side = np.where(one, sign, side)
-    return np.minimum(scale, cap), side, exponential
-
-
-def local_ball(density: Callable[[NDArray], NDArray], centre: NDArray, spread: NDArray,
-               walkers: int, rng: np.random.Generator) -> NDArray:
-    """Walkers around ``centre`` (z) at the posterior's local scale (:func:`local_scale`,
-    capped by the prior's ``spread`` in z), each inside the posterior's typical set
-    (:func:`_pull_back`): a Gaussian step along each column where the centre is inside the
-    allowed region, a one-sided one (exponential, or half-Gaussian) where it sits on a bound.
-    Returns z, ``(walkers, ndim)``."""
-    scale, side, exponential = local_scale(density, centre, spread)
-    normal = rng.standard_normal((walkers, centre.size))
-    one_sided = np.where(exponential, rng.standard_exponential((walkers, centre.size)),
-                         np.abs(normal))
-    ball = centre + scale * np.where(side == 0, normal, side * one_sided)
-    return _pull_back(density, centre, ball)
 
 
 class SamplerTarget:
@@ -233,16 +155,7 @@ class SamplerTarget:
 
 def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 4,
                n_candidates: int = 10_000) -> NDArray:
-    """The highest density found in sampler coordinates z, where the walkers start
-    (:func:`_find_start`, without the prior's spread)."""
-    return _find_start(target, rng, n_starts, n_candidates)[0]
-
-
-def _find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 4,
-                n_candidates: int = 10_000) -> tuple[NDArray, NDArray]:
-    """The highest density found in sampler coordinates z, where the walkers start, and the
-    prior's spread in z (the sd of the candidates below; 1 where they do not vary, such as
-    T0's offset, which they all put at 0).
+    """The highest density found in sampler coordinates z, where the walkers start.
 
     The starts are the best of ``n_candidates`` prior draws (one vectorised call; a sampled
     T0 put at its best value given the rest, offset δ = 0), so a multimodal posterior is
@@ -261,8 +174,8 @@ def _find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int =
 
     Returns
     -------
-    tuple[NDArray, NDArray]
-        The best point found, in z, shape ``(ndim,)``, and the prior's spread in z.
+    NDArray
+        The best point found, in z, shape ``(ndim,)``.
     """
     space = target.log_posterior.space
     z = target.coordinates.to_sampler(space.sample_prior(rng, n_candidates))
@@ -281,7 +194,7 @@ def _find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int =
         point, value = _climb(target, start, spread)
         if value > best_value:
             best, best_value = point, value
-    return best, spread
+    return best
 
 
 def atom_geometry(coordinates: SamplerCoordinates, slab_draws: NDArray
@@ -349,13 +262,11 @@ def _present_walk(target: SamplerTarget, start: NDArray, most: int, seed: int
     posterior moves with each effect's size (:func:`atom_geometry`). Returns the coordinates
     with that geometry, where the walkers ended (as parameters x) and the steps taken.
 
-    The spread decides when, rather than a fixed number of steps: from a ball 10⁻⁴ of the
-    priors' spread wide (:func:`initial_ball`) the walkers of the exact pendulum on the
-    README's roll reached their posterior's spread in about 100 steps, those of the
-    small-angle model, whose contact time piles against 0, in about 250; a geometry taken
-    too early, from walkers still spreading, is too narrow, and the run after it mixed ten
-    times more slowly. From the posterior's local scale (:func:`local_ball`) they settle
-    sooner.
+    The spread decides when, rather than a fixed number of steps: from the start's ball
+    (10⁻⁴ of the priors' spread) the walkers of the exact pendulum on the README's roll
+    reach their posterior's spread in about 100 steps, those of the small-angle model, whose
+    contact time piles against 0, in about 250; a geometry taken too early, from walkers
+    still spreading, is too narrow, and the run after it mixed ten times more slowly.
     """
     coordinates = target.coordinates
     start = start.copy()
@@ -390,27 +301,11 @@ def sampler_coordinates(log_posterior: LogPosterior, settings: SamplerSettings
     rng = np.random.default_rng(settings.seed)
     target = SamplerTarget(log_posterior, coordinates)
     walkers = max(settings.walkers, 2 * log_posterior.space.ndim + 2)
-    start = _starting_walkers(target, walkers, rng)[1]
+    mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
+    start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
     seed = int(np.random.SeedSequence([settings.seed, 1]).generate_state(2)[1])
     return _present_walk(target, start, min(settings.check_every, settings.max_steps // 2),
                          seed)[0]
-
-
-def _starting_walkers(target: SamplerTarget, walkers: int, rng: np.random.Generator
-                      ) -> tuple[NDArray, NDArray]:
-    """The highest point found (:func:`find_start`), as parameters x, and the walkers around
-    it in z (:func:`local_ball`): of the target with every effect present where an effect may
-    be absent, as the first walk (:func:`_present_walk`) samples, so that a contact time at
-    its wall at 0 starts on the slab's side, at the slab's exponential scale."""
-    coordinates = target.coordinates
-    centre, spread = _find_start(target, rng)
-    mode = coordinates.to_parameters(centre[None])[0][0]
-    density = target
-    if coordinates.atom_columns:
-        density = _SlabTarget(target)
-        centre = centre.copy()
-        centre[list(coordinates.atom_columns)] = np.abs(centre[list(coordinates.atom_columns)])
-    return mode, local_ball(density, centre, spread, walkers, rng)
 
 
 def _climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int = 6
@@ -511,10 +406,9 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     non-centred offset), where the posterior is nearly Gaussian: with the
     differential-evolution moves of :func:`moves` the autocorrelation time falls from
     ~90 to ~25–40 steps. Every diagnostic (τ, R-hat, ESS) and every output is computed on the
-    model's own parameters. The walkers start around the highest point found
-    (:func:`find_start`), at the posterior's local scale there (:func:`local_ball`). Where an
-    effect may be absent (an atom at 0, the default contact time), they first walk with it
-    present (:func:`_present_walk`, until the walkers' spread settles), whose draws set the
+    model's own parameters. The walkers start in a ball around the highest point found
+    (:func:`find_start`). Where an effect may be absent (an atom at 0, the default contact
+    time), they first walk one check's worth of steps with it present, whose draws set the
     coordinates in which "absent" and "present" mix (:func:`atom_geometry`); those steps are
     burn-in, counted in ``n_steps`` and ``burn``. At each check ``3 τ_max`` steps are
     discarded as burn-in and the rest thinned by ``τ_min / 3`` (which costs a few percent of
@@ -539,7 +433,8 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     walkers = max(settings.walkers, 2 * ndim + 2)
     coordinates = SamplerCoordinates(log_posterior.space, getattr(log_posterior, "data", None))
     target = SamplerTarget(log_posterior, coordinates)
-    mode, start = _starting_walkers(target, walkers, rng)
+    mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
+    start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
     from drumroll.inference.ensemble import emcee  # emcee without scipy.stats
 
     if not emcee.ensemble.walkers_independent(start):  # emcee's own test, run_mcmc's first

@@ -199,33 +199,6 @@ def test_walkers_start_inside_the_posterior_however_wide_the_prior():
     assert np.all(np.std(ball, axis=0) > 0)  # still a ball: the moves need a spread
 
 
-def test_walkers_start_at_the_local_scale_inside_the_typical_set():
-    """The run's start (:func:`local_ball` around :func:`find_start`'s point, as
-    :func:`run_emcee` makes it): every walker on the slab's side of a contact time's wall at
-    0 and where a Gaussian posterior's draws lie 99.9 % of the time, in the density the first
-    walk samples; still a ball."""
-    from scipy.stats import chi2
-
-    from drumroll.inference.coordinates import SamplerCoordinates
-    from drumroll.inference.sampling import SamplerTarget, _find_start, _SlabTarget, local_ball
-
-    rng = np.random.default_rng(4)
-    impacts = np.r_[0.0, np.cumsum(0.2 * 0.9 ** np.arange(1, 16))]
-    data = OnsetData.from_arrays(0.5 + impacts + rng.normal(0, 5e-5, 16))
-    lp = LogPosterior.build(parse_config(POWERLAW), "powerlaw", data)
-    coordinates = SamplerCoordinates(lp.space, lp.data)
-    target = SamplerTarget(lp, coordinates)
-    atoms = list(coordinates.atom_columns)
-    density = _SlabTarget(target) if atoms else target
-    centre, spread = _find_start(target, rng)
-    centre[atoms] = np.abs(centre[atoms])
-    ball = local_ball(density, centre, spread, 64, rng)
-    below = density(centre[None])[0] - density(ball)
-    assert np.all(below <= 0.5 * chi2.ppf(0.999, centre.size) + 1e-9)
-    assert np.all(ball[:, atoms] >= 0.0)
-    assert np.all(np.std(ball, axis=0) > 0)
-
-
 def test_start_search_reaches_the_top_when_the_posterior_leans_on_a_prior_edge():
     """The ping-pong roll's power law: on the way up, the climbs cross regions where the
     contact time sits at 0 or the jitter at its prior's 10 ms, edges on which an unbounded
