@@ -319,10 +319,11 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
 #: before the fit says it may not be an impact of the roll. The first impact is struck
 #: fastest, so it is rarely much fainter than the next: over the shared corpus's 12 rolls of
 #: real snare, claves and ball hits and the real ping-pong, the first onset lay at most 14 dB
-#: under them (a ball glancing off the claves; the others 7 dB or less), while the taps before
-#: simulated rolls (table2_h80's [simulate], 40 recordings) that the extractor took for a
-#: first bounce lay 29 and 33 dB under. A fainter first onset is a sound to check, not one to
-#: drop: the fit keeps it.
+#: under them (a ball glancing off the claves; the others 7 dB or less), while of the sounds
+#: before simulated rolls (table2_h80's [simulate], 40 recordings) that the extractor took
+#: for a first bounce, two lay 29 and 33 dB under (a tap, and a sound 37 ms before another
+#: tap) and one tap 4 dB under, which its level cannot tell. A fainter first onset is a sound
+#: to check, not one to drop: the fit keeps it.
 FAINT_FIRST_DB = 20.0
 
 

@@ -249,9 +249,9 @@ def test_a_first_onset_far_fainter_than_the_next_is_flagged_a_real_faint_first_i
     (:data:`~drumroll.pipeline.FAINT_FIRST_DB`). Real sound: the claves roll of the shared
     corpus, whose first impact (a ball glancing off the claves) the extractor finds 14 dB under
     the next, is fitted without it; the bundled table2_h80 roll with a tap 30 dB under its first
-    impact put where the bounce before it would be (as the [simulate] section's taps land,
-    which the extractor took for the first bounce in 2 of 40 rolls) is flagged, and the note
-    names the tap's time."""
+    impact put where the bounce before it would be (as the [simulate] section's taps land:
+    the extractor took a sound before the roll for its first bounce in 3 of 40 rolls, two of
+    them 29 and 33 dB under) is flagged, and the note names the tap's time."""
     from drumroll.pipeline import FAINT_FIRST_DB, choose_roll
 
     def faint_notes(table):
