@@ -295,17 +295,38 @@ def sampler_coordinates(log_posterior: LogPosterior, settings: SamplerSettings
     the geometry of its effects that may be absent included (its start search and first walk
     with them present, as the run makes them): for a sampler of several posteriors at once (a
     joint fit, :mod:`drumroll.table.joint`), whose own run sees none of their atoms."""
-    coordinates = SamplerCoordinates(log_posterior.space, getattr(log_posterior, "data", None))
-    if not coordinates.atom_columns:
-        return coordinates
+    target, _, start = _start(log_posterior, settings)
+    if not target.coordinates.atom_columns:
+        return target.coordinates
+    return _first_walk(target, start, settings)[0]
+
+
+def _start(log_posterior: LogPosterior, settings: SamplerSettings
+           ) -> tuple[SamplerTarget, NDArray, NDArray]:
+    """Where a run of ``settings`` starts: its target in the plain sampler coordinates, the
+    highest point found (:func:`find_start`, as parameters x) and the walkers in a ball around
+    it (:func:`initial_ball`, in z)."""
     rng = np.random.default_rng(settings.seed)
-    target = SamplerTarget(log_posterior, coordinates)
     walkers = max(settings.walkers, 2 * log_posterior.space.ndim + 2)
+    coordinates = SamplerCoordinates(log_posterior.space, getattr(log_posterior, "data", None))
+    target = SamplerTarget(log_posterior, coordinates)
     mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
     start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
-    seed = int(np.random.SeedSequence([settings.seed, 1]).generate_state(2)[1])
+    return target, mode, start
+
+
+def _walk_seeds(settings: SamplerSettings) -> tuple[int, int]:
+    """The seeds of a run's kept chain and of its first walk with every effect present."""
+    seeds = np.random.SeedSequence([settings.seed, 1]).generate_state(2)
+    return int(seeds[0]), int(seeds[1])
+
+
+def _first_walk(target: SamplerTarget, start: NDArray, settings: SamplerSettings
+                ) -> tuple[SamplerCoordinates, NDArray, int]:
+    """:func:`_present_walk` as a run of ``settings`` makes it: at most one check's worth of
+    steps (and half the step limit), from its own seed."""
     return _present_walk(target, start, min(settings.check_every, settings.max_steps // 2),
-                         seed)[0]
+                         _walk_seeds(settings)[1])
 
 
 def _climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int = 6
@@ -428,13 +449,9 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
         ``(walkers, draws)``); the run stops only when all of them meet the targets. Without
         it, the sampled parameters are checked.
     """
-    rng = np.random.default_rng(settings.seed)
-    ndim = log_posterior.space.ndim
-    walkers = max(settings.walkers, 2 * ndim + 2)
-    coordinates = SamplerCoordinates(log_posterior.space, getattr(log_posterior, "data", None))
-    target = SamplerTarget(log_posterior, coordinates)
-    mode = coordinates.to_parameters(find_start(target, rng)[None])[0][0]
-    start = coordinates.to_sampler(initial_ball(log_posterior, mode, walkers, rng))
+    target, mode, start = _start(log_posterior, settings)
+    coordinates = target.coordinates
+    walkers, ndim = start.shape
     from drumroll.inference.ensemble import emcee  # emcee without scipy.stats
 
     if not emcee.ensemble.walkers_independent(start):  # emcee's own test, run_mcmc's first
@@ -442,18 +459,16 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
         # a Gaussian posterior would give it, which onsets a model can fit never do (times in
         # the wrong unit, a jitter prior that stops short of the roll's misfit).
         raise OnsetsOutsidePriors(log_posterior.space.model)
-    seeds = np.random.SeedSequence([settings.seed, 1]).generate_state(2)
     first = 0  # steps taken before the chain that is kept (the atoms' first phase)
     if coordinates.atom_columns:
         # Effects that may be absent: a first walk with every effect present sets the
         # coordinates that let "absent" and "present" mix; its steps are burn-in.
-        coordinates, present, first = _present_walk(
-            target, start, min(settings.check_every, settings.max_steps // 2), int(seeds[1]))
+        coordinates, present, first = _first_walk(target, start, settings)
         target = SamplerTarget(log_posterior, coordinates)
         start = coordinates.to_sampler(present)
         if progress is not None:
             progress(first, settings.max_steps)
-    sampler = ensemble_sampler(target, walkers, ndim, int(seeds[0]))
+    sampler = ensemble_sampler(target, walkers, ndim, _walk_seeds(settings)[0])
     converged, checks, steps, state = False, 0, 0, start
     until = min(settings.check_every, settings.max_steps - first)
     while True:
