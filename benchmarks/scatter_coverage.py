@@ -9,7 +9,9 @@ restitution scatters, α_k = α(v_k) e^{ε_k} with ε_k ~ N(0, s²) and 1 − α
 by default.
 Prints, per fit and parameter, the share of 90 % intervals that cover the truth (with the
 binomial 99 % band for that many rolls), the spread of (mean − truth) / sd (1 for honest error
-bars) and its mean.
+bars) and its mean, and the share of rolls whose fit the posterior predictive check of
+:mod:`drumroll.inference.adequacy` calls inadequate (the warning ``estimate`` gives before
+any number): a fit whose bars are too narrow should say so.
 
 Usage: ``python benchmarks/scatter_coverage.py [--rolls 100] [--scatter 0.005]
 [--exponent 0.2] [--contact-ms 1] [--seed 1000]`` (about 5 s per roll and fit on one core).
@@ -71,6 +73,7 @@ def main() -> None:
     fits = configs(args.exponent)
     found = {(f, q): [] for f in fits for q in ("alpha", "t_b")}
     truths = {"alpha": [], "t_b": []}
+    flagged: dict[str, list[bool]] = {f: [] for f in fits}
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "roll.csv"
         for i in range(args.rolls):
@@ -80,7 +83,9 @@ def main() -> None:
             truths["alpha"].append(alpha)
             truths["t_b"].append(t_b)
             for name, config in fits.items():
-                parameters = drumroll.estimate(path, config).summary.parameters
+                summary = drumroll.estimate(path, config).summary
+                parameters = summary.parameters
+                flagged[name].append(summary.models[config.model].adequacy.adequate is False)
                 for q in ("alpha", "t_b"):
                     p = parameters[q]
                     found[name, q].append((p.mean, p.sd, p.hdi_low, p.hdi_high))
@@ -88,12 +93,14 @@ def main() -> None:
     lo, hi = binom.ppf(0.005, n, 0.9) / n, binom.ppf(0.995, n, 0.9) / n
     print(f"{n} rolls, scatter {args.scatter:g}, exponent {args.exponent:g}, contact "
           f"{args.contact_ms:g} ms; 90 % coverage's binomial 99 % band [{lo:.2f}, {hi:.2f}]")
-    print(f"{'fit':9s} {'param':6s} {'coverage':>8s} {'spread of z':>11s} {'mean z':>7s}")
+    print(f"{'fit':9s} {'param':6s} {'coverage':>8s} {'spread of z':>11s} {'mean z':>7s} "
+          f"{'flagged':>8s}")
     for (name, q), rows in found.items():
         v, truth = np.array(rows), np.array(truths[q])
         cover = np.mean((v[:, 2] < truth) & (truth < v[:, 3]))
         z = (v[:, 0] - truth) / v[:, 1]
-        print(f"{name:9s} {q:6s} {cover:8.2f} {np.std(z):11.2f} {np.mean(z):+7.2f}")
+        print(f"{name:9s} {q:6s} {cover:8.2f} {np.std(z):11.2f} {np.mean(z):+7.2f} "
+              f"{np.mean(flagged[name]):8.2f}")
 
 
 if __name__ == "__main__":

@@ -570,7 +570,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         fit = fits[model] = ModelFit(model, log_posterior, chain, draws, evidence, check,
                                      fit_seconds)
         loos[model] = loo(draws)
-        checked[model] = adequacy(draws)  # on every draw
+        checked[model] = adequacy(draws, log_posterior=log_posterior,  # on every draw
+                                  parameters=chain.samples)
         fit.stats = _summarised(draws, settings.hdi_prob)
         base_diagnostics[model] = diagnostics(draws, chain, loos[model], settings)
         summaries[model] = ModelSummary(

@@ -269,6 +269,12 @@ class Adequacy(Record):
         if runs is not None and runs.p_value is not None and runs.p_value < self.level:
             shown.append(f"they change sign in {runs.observed:.0f} runs where the model's "
                          f"noise gives {runs.replicated:.0f} ({p_value_text(runs.p_value)})")
+        walk = self.checks.get("scatter_walk")
+        if walk is not None and walk.p_value is not None and walk.p_value < self.level:
+            shown.append(f"they drift away from the fit as a restitution that scatters from "
+                         f"bounce to bounce makes onsets drift, {walk.observed:.1f} times as "
+                         f"much as independent noise would, where the model's noise gives "
+                         f"{walk.replicated:.1f} ({p_value_text(walk.p_value)})")
         return (f"{model} does not describe these onsets: {'; '.join(shown)}. Its error bars "
                 "describe the model, not the bouncer (a restitution that changes with speed "
                 "or from bounce to bounce, or a mis-numbered bounce, leaves this pattern)")

@@ -287,11 +287,14 @@ def adequacy_section(summary: Summary) -> tuple[Block, ...]:
         return ()
     level = next(iter(checked.values())).level
     header = (("model",), ("residuals' lag-1 correlation (model's noise)",), ("p",),
-              ("runs of one sign (model's noise)",), ("p",), ("describes the onsets",))
+              ("runs of one sign (model's noise)",), ("p",),
+              ("drift as a scattering restitution makes it (model's noise)",), ("p",),
+              ("describes the onsets",))
     rows = []
     for model, adequacy in checked.items():
         cells: list[Content] = [_model(model)]
-        for name, digits in (("lag1_autocorrelation", 2), ("sign_runs", 1)):
+        for name, digits in (("lag1_autocorrelation", 2), ("sign_runs", 1),
+                             ("scatter_walk", 1)):
             check = adequacy.checks.get(name)
             if check is None or check.observed is None or check.replicated is None:
                 cells += [("—",), ("—",)]
@@ -308,11 +311,15 @@ def adequacy_section(summary: Summary) -> tuple[Block, ...]:
         rows.append(tuple(cells))
     note = ("Posterior predictive checks: each statistic of the standardised residuals "
             "against the same statistic of residuals replicated from the model's own noise, "
-            f"draw by draw; a model fails when either p-value is below {level:g}. Neighbouring "
+            f"draw by draw; a model fails when any p-value is below {level:g}. Neighbouring "
             "residuals that share a sign and a size (a high correlation, few runs) are a "
-            "pattern the model leaves out, not timing noise.")
+            "pattern the model leaves out, not timing noise. The drift is how much of the "
+            "residuals, once what the model's parameters can follow is taken out, lies "
+            "where a restitution that scatters from bounce to bounce moves the onsets, "
+            "against what independent noise puts there (1).")
     return (Heading(2, ("Does each model describe the onsets?",)),
-            Table(header, tuple(rows), (None, "right", "right", "right", "right", None),
+            Table(header, tuple(rows),
+                  (None, "right", "right", "right", "right", "right", "right", None),
                   notes=(TableNote((note,)),)))
 
 

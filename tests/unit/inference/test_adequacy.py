@@ -11,7 +11,13 @@ import itertools
 
 import numpy as np
 
-from drumroll.inference.adequacy import LEVEL, check_residuals, lag1_autocorrelation, sign_runs
+from drumroll.inference.adequacy import (
+    LEVEL,
+    check_residuals,
+    lag1_autocorrelation,
+    scatter_walk,
+    sign_runs,
+)
 from drumroll.inference.results import Adequacy
 
 
@@ -83,3 +89,65 @@ def test_the_misfit_names_the_failed_check_and_round_trips_through_json():
     assert sentence.startswith("powerlaw does not describe these onsets")
     assert "p < 0.001" in sentence
     assert Adequacy.from_json(result.to_json()) == result
+
+
+def _walk_reference(r, w, J, G):
+    """scatter_walk written with explicit matrices: the weighted residual maker
+    P = I − W^½ J (Jᵀ W J)⁻¹ Jᵀ W^½, S = W^½ G, and the two ratios to their expectations
+    under white noise."""
+    root = np.diag(np.sqrt(w))
+    a, A, S = root @ r, root @ J, root @ G
+    P = np.eye(len(r)) - A @ np.linalg.inv(A.T @ A) @ A.T
+    return (float((S.T @ P @ a) @ (S.T @ P @ a)) / float(np.trace(S.T @ P @ S))
+            / (float(a @ P @ a) / (len(r) - J.shape[1])))
+
+
+def _walk_problem(rng, n=16, draws=5):
+    """Weights, parameter directions (an offset, a trend, a curvature) and a random walk's
+    sensitivity (cumulative flights) for ``draws`` draws."""
+    w = 1.0 / rng.uniform(0.5e-4, 2e-4, (draws, n)) ** 2
+    k = np.arange(n) / n
+    J = np.stack([np.ones(n), k, k**2], axis=1)
+    J = np.broadcast_to(J, (draws, n, 3)) * rng.uniform(0.5, 2.0, (draws, 1, 3))
+    flights = 0.25 * 0.9 ** np.arange(n - 1)
+    times = np.concatenate(([0.0], np.cumsum(flights)))
+    G = np.where(np.arange(1, n)[None, :] <= np.arange(n)[:, None],
+                 times[:, None] - times[None, :-1], 0.0)
+    return w, J, np.broadcast_to(G, (draws, n, n - 1)).copy()
+
+
+def test_scatter_walk_equals_explicit_matrices():
+    rng = np.random.default_rng(4)
+    w, J, G = _walk_problem(rng)
+    r = rng.standard_normal(w.shape) / np.sqrt(w)
+    np.testing.assert_allclose(scatter_walk(r, w, J, G),
+                               [_walk_reference(r[b], w[b], J[b], G[b]) for b in range(5)],
+                               rtol=1e-9)
+
+
+def test_scatter_walk_ignores_what_the_parameters_can_follow():
+    """Residuals plus any combination of the parameters' directions (an error in T0, in α,
+    in t_B) give the same statistic: the check sees only what the fit cannot absorb; a
+    direction counted twice (a stick's geometry) changes nothing either."""
+    rng = np.random.default_rng(5)
+    w, J, G = _walk_problem(rng)
+    r = rng.standard_normal(w.shape) / np.sqrt(w)
+    moved = r + np.einsum("bnp,bp->bn", J, rng.normal(0.0, 1e-3, (5, 3)))
+    twice = np.concatenate([J, J[:, :, 1:2] * 3.0], axis=2)
+    np.testing.assert_allclose(scatter_walk(moved, w, J, G), scatter_walk(r, w, J, G),
+                               rtol=1e-6)
+    np.testing.assert_allclose(scatter_walk(r, w, twice, G), scatter_walk(r, w, J, G),
+                               rtol=1e-6)
+
+
+def test_scatter_walk_is_one_for_white_noise_and_grows_with_a_scatter():
+    """Its two parts are each 1 in expectation for independent noise; onsets moved by a
+    scattering restitution (G ε, ε ~ N(0, s²)) put several times more in those directions."""
+    rng = np.random.default_rng(6)
+    w, J, G = _walk_problem(rng, draws=4000)
+    white = rng.standard_normal(w.shape) / np.sqrt(w)
+    assert 0.9 < np.median(scatter_walk(white, w, J, G)) / np.median(
+        scatter_walk(rng.standard_normal(w.shape) / np.sqrt(w), w, J, G)) < 1.1
+    assert 0.9 < np.mean(scatter_walk(white, w, J, G)) < 1.2
+    walked = white + np.einsum("bnk,bk->bn", G, rng.normal(0.0, 0.002, G.shape[::2]))
+    assert np.median(scatter_walk(walked, w, J, G)) > 3.0
