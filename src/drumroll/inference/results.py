@@ -271,9 +271,9 @@ class Adequacy(Record):
                          f"noise gives {runs.replicated:.0f} ({p_value_text(runs.p_value)})")
         walk = self.checks.get("scatter_walk")
         if walk is not None and walk.p_value is not None and walk.p_value < self.level:
-            shown.append(f"they drift away from the fit as a restitution that scatters from "
-                         f"bounce to bounce makes onsets drift, {walk.observed:.1f} times as "
-                         f"much as independent noise would, where the model's noise gives "
+            shown.append(f"they drift from the fit as a restitution that scatters from bounce "
+                         f"to bounce moves onsets, {walk.observed:.1f} times what independent "
+                         f"noise puts there, where the model's own noise gives "
                          f"{walk.replicated:.1f} ({p_value_text(walk.p_value)})")
         return (f"{model} does not describe these onsets: {'; '.join(shown)}. Its error bars "
                 "describe the model, not the bouncer (a restitution that changes with speed "
