@@ -39,12 +39,18 @@ those 30 rolls, the three together 14, and none of 200 rolls without scatter (0.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import NDArray
 
 from drumroll.inference.inference_data import observed_onsets
 from drumroll.inference.results import Adequacy, AdequacyCheck
 from drumroll.inference.scatter import impact_sensitivity
+from drumroll.inference.space import SCATTER
+
+if TYPE_CHECKING:
+    from drumroll.inference.posterior import LogPosterior
 
 #: Posterior predictive p-value below which a check fails.
 LEVEL = 0.01
@@ -59,7 +65,7 @@ WALK_DRAWS = 500
 STEP = 1e-6
 #: Columns that are not directions of the onsets' mean: the noise's own parameters, and T0
 #: (the column of ones stands for it).
-NOT_DIRECTIONS = frozenset({"jitter", "restitution_scatter", "t0", "nu"})
+NOT_DIRECTIONS = frozenset({"jitter", SCATTER, "t0", "nu"})
 #: Singular values of the weighted directions below this share of the largest are one
 #: direction counted twice (a stick's geometry fixes t_B several ways).
 RANK_TOLERANCE = 1e-9
@@ -119,7 +125,8 @@ def scatter_walk(residuals: NDArray, weights: NDArray, directions: NDArray,
                 / (np.sum(a * a, axis=1) / (a.shape[1] - keep.sum(axis=1))))
 
 
-def scatter_check(log_posterior, parameters: NDArray, noise: NDArray) -> AdequacyCheck | None:
+def scatter_check(log_posterior: LogPosterior, parameters: NDArray, noise: NDArray
+                  ) -> AdequacyCheck | None:
     """The scatter check (:func:`scatter_walk`) of a fit: ``parameters`` ``(draws, ndim)``,
     the model's parameters draw by draw, and ``noise`` ``(draws, n)``, onsets replicated from
     the model's own noise less its onset times, at the same draws. Every
@@ -198,7 +205,7 @@ def check_residuals(observed: NDArray, replicated: NDArray, level: float = LEVEL
                     level=level)
 
 
-def adequacy(idata, level: float = LEVEL, log_posterior=None,
+def adequacy(idata, level: float = LEVEL, log_posterior: LogPosterior | None = None,
              parameters: NDArray | None = None) -> Adequacy:
     """The checks of one model's fit from its InferenceData: the observed onsets, the model's
     noise-free onset times and the replicated ones (``posterior_predictive``), each standardised
