@@ -102,8 +102,9 @@ def scatter_walk(residuals: NDArray, weights: NDArray, directions: NDArray,
     Parameters
     ----------
     residuals
-        Onset times less the model's, ``(draws, n)`` (any offset common to a row is one of
-        the directions when ``directions`` holds a column of ones).
+        Onset times less the model's, ``(..., draws, n)`` (any offset common to a row is one
+        of the directions when ``directions`` holds a column of ones): several sets at once
+        (the observed and the replicated) share one projection.
     weights
         w = 1 / (jitter² + σ_i²), ``(draws, n)``.
     directions
@@ -116,13 +117,13 @@ def scatter_walk(residuals: NDArray, weights: NDArray, directions: NDArray,
     keep = singular > RANK_TOLERANCE * singular[..., :1]
     basis = u * keep[:, None, :]
     a = residuals * root
-    a = a - np.einsum("bnk,bk->bn", basis, np.einsum("bnk,bn->bk", basis, a))
+    a = a - np.einsum("bnk,...bk->...bn", basis, np.einsum("bnk,...bn->...bk", basis, a))
     s = sensitivity * root[..., None]
     s = s - np.einsum("bnk,bkj->bnj", basis, np.einsum("bnk,bnj->bkj", basis, s))
-    along = np.einsum("bnj,bn->bj", s, a)
+    along = np.einsum("bnj,...bn->...bj", s, a)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return ((np.sum(along * along, axis=1) / np.sum(s * s, axis=(1, 2)))
-                / (np.sum(a * a, axis=1) / (a.shape[1] - keep.sum(axis=1))))
+        return ((np.sum(along * along, axis=-1) / np.sum(s * s, axis=(1, 2)))
+                / (np.sum(a * a, axis=-1) / (a.shape[-1] - keep.sum(axis=1))))
 
 
 def scatter_check(log_posterior: LogPosterior, parameters: NDArray, noise: NDArray
@@ -162,9 +163,8 @@ def scatter_check(log_posterior: LogPosterior, parameters: NDArray, noise: NDArr
               & np.isfinite(noise).all(axis=1) & np.isfinite(weights).all(axis=1))
     if not valid.any():
         return None
-    args = (weights[valid], directions[valid], sensitivity[valid])
-    observed = scatter_walk(data.times - mean[valid], *args)
-    replicated = scatter_walk(noise[valid], *args)
+    observed, replicated = scatter_walk(np.stack([data.times - mean[valid], noise[valid]]),
+                                        weights[valid], directions[valid], sensitivity[valid])
     ok = np.isfinite(observed) & np.isfinite(replicated)
     if not ok.any():
         return None

@@ -429,7 +429,8 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     ~90 to ~25–40 steps. Every diagnostic (τ, R-hat, ESS) and every output is computed on the
     model's own parameters. The walkers start in a ball around the highest point found
     (:func:`find_start`). Where an effect may be absent (an atom at 0, the default contact
-    time), they first walk one check's worth of steps with it present, whose draws set the
+    time), they first walk with it present (:func:`_present_walk`: until the walkers' spread
+    settles, at most one check's worth of steps), whose draws set the
     coordinates in which "absent" and "present" mix (:func:`atom_geometry`); those steps are
     burn-in, counted in ``n_steps`` and ``burn``. At each check ``3 τ_max`` steps are
     discarded as burn-in and the rest thinned by ``τ_min / 3`` (which costs a few percent of
