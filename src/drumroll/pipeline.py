@@ -18,7 +18,7 @@ import importlib
 import math
 import os
 import time
-from concurrent.futures import as_completed
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -39,6 +39,8 @@ from drumroll.inference.missed_impacts import (
     missed_note,
     missed_probabilities,
     missed_warning,
+    needs_fit,
+    screen_log_evidence,
     shifted,
 )
 from drumroll.inference.posterior import LogPosterior
@@ -591,7 +593,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         post_seconds += time.perf_counter() - begun
 
     # The stick models' discrete parameter: how many impacts came before the first onset
-    # (inference.missed_impacts), each numbering fitted for its evidence alone.
+    # (inference.missed_impacts). Each other numbering is screened by a Laplace estimate of
+    # its evidence, and fitted for its evidence alone unless the screen puts it far below the
+    # main fit's.
     renumbered = {}
     if forward_model(config.model).needs_stick and settings.evidence != "none":
         renumbered = {missed: LogPosterior.build(config, config.model, shifted(data, missed),
@@ -599,7 +603,27 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                       for missed in range(1, settings.missed_first + 1)}
     evidence_settings = replace(settings, sampler=replace(
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
+    screened: dict[int, float] = {}
+    screened_out: set[int] = set()
     renumbered_log_z: dict[int, float] = {}
+
+    def screen() -> None:
+        for missed, log_posterior in renumbered.items():
+            screened[missed] = screen_log_evidence(log_posterior, seeds[config.model])
+
+    def numberings_to_fit(bar) -> list[int]:
+        """Once the main fit is back: the numberings its evidence does not rule out; the
+        others keep their screened ln Z."""
+        main_log_z = fits[config.model].evidence.log_z
+        wanted = []
+        for missed, log_z in screened.items():
+            if needs_fit(log_z, main_log_z):
+                wanted.append(missed)
+            else:
+                renumbered_log_z[missed] = log_z
+                screened_out.add(missed)
+                bar.advance(note=f"{missed} missed: screened out")
+        return wanted
 
     def keep_evidence(missed: int, output: tuple) -> None:
         evidence = output[1]
@@ -608,9 +632,11 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     def renumbered_fit(missed: int) -> tuple:
         return _fit, renumbered[missed], evidence_settings, seeds[config.model]
 
-    # One bar for every fit: the models, and the numberings fitted for their evidence.
+    # One bar for every fit: the models, and the numberings screened or fitted.
     with reporter.bar(len(models) + len(renumbered), "sampling", "fit") as bar:
         if workers == 1:
+            screen()
+            wanted: list[int] = []
             for model in models:
                 output = _fit(posteriors[model], settings, seeds[model])
                 if not fits:
@@ -618,7 +644,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                 finish(model, output)
                 say(f"{model}: done")
                 bar.advance(note=model)
-            for missed in renumbered:
+                if model == config.model and renumbered:
+                    wanted = numberings_to_fit(bar)
+            for missed in wanted:
                 function, *arguments = renumbered_fit(missed)
                 keep_evidence(missed, function(*arguments))
                 bar.advance(note=f"{missed} missed")
@@ -627,20 +655,24 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             # and so on after, while the workers sample.
             importlib.import_module("drumroll.inference.ensemble")
             with process_pool(workers) as pool:
-                futures = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
+                pending = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                            for m in models}
-                futures.update({pool.submit(*renumbered_fit(missed)): missed
-                                for missed in renumbered})
                 _while_sampling(listener, onsets, recording)
-                for future in as_completed(futures):
-                    task = futures[future]
-                    if isinstance(task, int):
-                        keep_evidence(task, future.result())
-                        bar.advance(note=f"{task} missed")
-                        continue
-                    finish(task, future.result())
-                    say(f"{task}: done")
-                    bar.advance(note=task)
+                screen()
+                while pending:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for future in done:
+                        task = pending.pop(future)
+                        if isinstance(task, int):
+                            keep_evidence(task, future.result())
+                            bar.advance(note=f"{task} missed")
+                            continue
+                        finish(task, future.result())
+                        say(f"{task}: done")
+                        bar.advance(note=task)
+                        if task == config.model and renumbered:
+                            pending.update({pool.submit(*renumbered_fit(missed)): missed
+                                            for missed in numberings_to_fit(bar)})
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
@@ -691,7 +723,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         notes=(*fitted.notes, *_release_notes(main.log_posterior.space),
                *_predicted_prior_notes(config, {m: f.log_posterior.space
                                                 for m, f in fits.items()}),
-               *([missed_note(config.model, missed_first)] if missed_first else [])),
+               *([missed_note(config.model, missed_first, screened_out)]
+                 if missed_first else [])),
         missed_first_impacts=missed_first,
         parameters=parameters,
         models=models_summary, observed_flights=observed[config.model],

@@ -1,6 +1,7 @@
-"""Impacts missed before the first onset (issue 13 item 9), through the command line: the
-exact pendulum's geometry fixes t_B, so the same roll with its first impact cut off is
-recognised as starting one impact late, and the full roll as starting on time."""
+"""Impacts missed before the first onset (issue 13 item 9), through the command line with the
+default config: the exact pendulum's geometry fixes t_B, so the same roll with its first
+impact cut off is recognised as starting one impact late, and the full roll as starting on
+time; the numberings far from the data are screened out rather than fitted."""
 
 from __future__ import annotations
 
@@ -24,9 +25,8 @@ def test_probabilities_are_the_normalised_evidences():
 def test_a_roll_whose_first_impact_is_cut_off_is_numbered_from_impact_one(tmp_path, capsys):
     assert main(["onsets", str(DATA / "table2_h80.flac"), "-o", str(tmp_path / "all.csv")]) == 0
     rows = list(csv.DictReader((tmp_path / "all.csv").open()))
-    config = (DATA / "table2_h80.toml").read_text().replace(
-        "[likelihood]\n", "[likelihood]\nmissed_first = 2\n")
-    (tmp_path / "h80.toml").write_text(config)
+    config = DATA / "table2_h80.toml"
+    assert "missed_first" not in config.read_text()  # on by default
     found = {}
     for name, first in (("late", 1), ("whole", 0)):
         with (tmp_path / f"{name}.csv").open("w", newline="") as handle:
@@ -37,12 +37,27 @@ def test_a_roll_whose_first_impact_is_cut_off_is_numbered_from_impact_one(tmp_pa
             writer.writerows([row["time_s"], int(row["bounce"]) - first] for row in rows[first:])
         out = tmp_path / name
         assert main(["estimate", str(tmp_path / f"{name}.csv"), "--prior",
-                     str(tmp_path / "h80.toml"), "-o", str(out), "-q"]) == 0
+                     str(config), "-o", str(out), "-q"]) == 0
         found[name] = json.loads((out / "summary.json").read_text())
     printed = capsys.readouterr().out
     late, whole = found["late"]["missed_first_impacts"], found["whole"]["missed_first_impacts"]
     assert late[1] > 0.99 and whole[0] > 0.99
+    # Numbered from impact 2, the whole roll is far below the data: screened, not fitted.
+    assert any("P(2) < 3e-07 (screened)" in note for note in found["whole"]["notes"])
     assert "the first onset may not be the roll's first impact" in printed
     assert any("P(none missed)" in w for w in found["late"]["diagnostics"]["pendulum"]["warnings"])
     assert not any("P(none missed)" in w
                    for w in found["whole"]["diagnostics"]["pendulum"]["warnings"])
+
+
+def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):
+    config = (DATA / "table2_h80.toml").read_text().replace(
+        "[likelihood]\n", "[likelihood]\nmissed_first = 0\n").replace(
+        'compare = ["small-angle", "powerlaw"]', "compare = []")
+    (tmp_path / "h80.toml").write_text(config)
+    out = tmp_path / "out"
+    assert main(["estimate", str(DATA / "table2_h80.flac"), "--prior", str(tmp_path / "h80.toml"),
+                 "-o", str(out), "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["missed_first_impacts"] == []
+    assert not any("impacts missed" in note for note in summary["notes"])

@@ -50,7 +50,7 @@ class EstimateSettings:
     workers: int = field(default_factory=lambda: os.cpu_count() or 1)
     noise: str = "gaussian"
     nu: Distribution = field(default_factory=lambda: Fixed(4.0))
-    missed_first: int = 0
+    missed_first: int = MAX_MISSED
     contact: str = "constant"
     hdi_prob: float = 0.9
 
@@ -117,7 +117,7 @@ def parse_likelihood(section: dict[str, Any], where: str) -> dict[str, Any]:
     if "missed_first" in section:
         out["missed_first"] = _integer(section["missed_first"], f"{where}.missed_first", 0)
         if out["missed_first"] > MAX_MISSED:
-            raise ConfigError(f"{where}.missed_first: at most {MAX_MISSED} (each costs a fit of "
+            raise ConfigError(f"{where}.missed_first: at most {MAX_MISSED} (each may cost a fit of "
                               f"the model), got {out['missed_first']}")
     if "noise" in section:
         out["noise"] = string(section["noise"], f"{where}.noise", NOISE_MODELS)

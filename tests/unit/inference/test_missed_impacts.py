@@ -1,0 +1,85 @@
+"""The Laplace screen of the renumbered rolls: its integral against exact ones (a correlated
+Gaussian, a Gaussian cut by a bound), and the screen against the fitted evidences of the
+bundled roll."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+from drumroll.config import load_config
+from drumroll.inference.likelihood import OnsetData
+from drumroll.inference.missed_impacts import (
+    SCREEN_NATS,
+    laplace,
+    missed_note,
+    needs_fit,
+    screen_log_evidence,
+    shifted,
+)
+from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.settings import estimate_settings
+from drumroll.pipeline import _fit, choose_roll, load_onsets
+from paths import DATA
+
+COVARIANCE = np.array([[2.0, 0.6, -0.3], [0.6, 1.0, 0.2], [-0.3, 0.2, 0.5]])
+
+
+def _gaussian(log_scale: float, mean: np.ndarray, covariance: np.ndarray):
+    distribution = stats.multivariate_normal(mean, covariance)
+    return lambda z: log_scale + distribution.logpdf(np.atleast_2d(z)).reshape(-1)
+
+
+def test_laplace_is_exact_for_a_gaussian():
+    density = _gaussian(3.7, np.array([1.0, -2.0, 0.5]), COVARIANCE)
+    box = np.array([[-np.inf, np.inf]] * 3)
+    assert laplace(density, np.array([1.0, -2.0, 0.5]), box) == pytest.approx(3.7, abs=1e-5)
+
+
+@pytest.mark.parametrize("mean", [-1.5, 0.0, 0.7])
+def test_laplace_integrates_one_side_of_a_bound(mean):
+    """A 2-d Gaussian cut at x ≥ 0: the mode on the bound (mean ≤ 0) integrates the one side;
+    the integral is checked against quadrature of the same density."""
+    covariance = np.array([[0.4, 0.0], [0.0, 1.3]])
+    density = _gaussian(0.0, np.array([mean, 0.0]), covariance)
+    box = np.array([[0.0, 10.0], [-np.inf, np.inf]])
+    mode = np.array([max(mean, 0.0), 0.0])
+    exact = math.log(integrate.dblquad(lambda y, x: math.exp(density([x, y])[0]),
+                                       0.0, 10.0, -12.0, 12.0)[0])
+    expected = exact if mean <= 0.0 else 0.0  # a mode inside: the whole Gaussian
+    assert laplace(density, mode, box) == pytest.approx(expected, abs=0.02 if mean > 0 else 1e-3)
+
+
+def test_laplace_has_no_answer_where_the_density_is_not_peaked():
+    flat = lambda z: np.zeros(np.atleast_2d(z).shape[0])  # noqa: E731
+    assert math.isnan(laplace(flat, np.zeros(2), np.array([[-np.inf, np.inf]] * 2)))
+
+
+def test_a_numbering_is_fitted_unless_screened_far_below():
+    assert needs_fit(50.0, 60.0) and needs_fit(math.nan, 60.0) and needs_fit(40.0, math.nan)
+    assert not needs_fit(60.0 - SCREEN_NATS - 0.1, 60.0)
+    note = missed_note("pendulum", (0.99, 0.01, 1e-12), screened={2})
+    assert "P(1) = 0.01" in note and "P(2) < 3e-07 (screened)" in note
+
+
+@pytest.mark.slow
+def test_the_screen_agrees_with_the_fitted_evidences():
+    """table2_h80, whole and with its first onset cut off, each numbered from impacts 0, 1, 2:
+    the screen's ln Z against the importance-sampled evidence of a fit, within 1.5 nats (the
+    screen's margin is 15), including the numberings far below."""
+    config = load_config(DATA / "table2_h80.toml")
+    settings = estimate_settings(config)
+    quick = replace(settings, sampler=replace(settings.sampler, target_ess=300))
+    data = choose_roll(load_onsets(DATA / "table2_h80.flac")).data
+    late = OnsetData(data.times[1:], data.sigmas[1:], np.asarray(data.bounces[1:]) - 1)
+    for onsets in (data, late):
+        for missed in range(3):
+            log_posterior = LogPosterior.build(config, config.model, shifted(onsets, missed),
+                                               settings.noise, settings.nu)
+            fitted = _fit(log_posterior, quick, 11)[1]
+            assert fitted.trusted
+            assert screen_log_evidence(log_posterior, 3) == pytest.approx(fitted.log_z, abs=1.5)
