@@ -36,11 +36,13 @@ from drumroll.inference.inference_data import build_draws, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.missed_impacts import (
     EVIDENCE_ONLY_ESS,
+    Screen,
     missed_note,
     missed_probabilities,
     missed_warning,
     needs_fit,
-    screen_log_evidence,
+    screen,
+    screened_evidence,
     shifted,
 )
 from drumroll.inference.posterior import LogPosterior
@@ -594,8 +596,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
 
     # The stick models' discrete parameter: how many impacts came before the first onset
     # (inference.missed_impacts). Each other numbering is screened by a Laplace estimate of
-    # its evidence, and fitted for its evidence alone unless the screen puts it far below the
-    # main fit's.
+    # its evidence while the models are sampled; its evidence is then importance sampled
+    # from the screen, and it is fitted only where that fails its diagnostic and the screen
+    # does not put it far below the main fit's.
     renumbered = {}
     if forward_model(config.model).needs_stick and settings.evidence != "none":
         renumbered = {missed: LogPosterior.build(config, config.model, shifted(data, missed),
@@ -603,26 +606,36 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                       for missed in range(1, settings.missed_first + 1)}
     evidence_settings = replace(settings, sampler=replace(
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
-    screened: dict[int, float] = {}
+    screens: dict[int, Screen] = {}
+    screen_evidences: dict[int, Evidence | None] = {}
     screened_out: set[int] = set()
     renumbered_log_z: dict[int, float] = {}
 
-    def screen() -> None:
+    def screen_numberings() -> None:
         for missed, log_posterior in renumbered.items():
-            screened[missed] = screen_log_evidence(log_posterior, seeds[config.model])
+            screens[missed] = screen(log_posterior, seeds[config.model])
+            screen_evidences[missed] = screened_evidence(log_posterior, screens[missed],
+                                                         seeds[config.model])
 
     def numberings_to_fit(bar) -> list[int]:
-        """Once the main fit is back: the numberings its evidence does not rule out; the
-        others keep their screened ln Z."""
+        """Once the main fit is back: the numberings that need a fit. Not those whose
+        evidence importance sampling from their screen gives to its own diagnostic's
+        satisfaction, nor those the main fit's evidence rules out by the screen alone (they
+        keep their screened ln Z, and their probability is given as a bound)."""
         main_log_z = fits[config.model].evidence.log_z
         wanted = []
-        for missed, log_z in screened.items():
-            if needs_fit(log_z, main_log_z):
-                wanted.append(missed)
-            else:
-                renumbered_log_z[missed] = log_z
+        for missed, found in screens.items():
+            evidence = screen_evidences[missed]
+            if evidence is not None and evidence.trusted:
+                renumbered_log_z[missed] = evidence.log_z
+                bar.advance(note=f"{missed} missed: from its screen")
+                continue
+            if not needs_fit(found.log_z, main_log_z):
+                renumbered_log_z[missed] = found.log_z
                 screened_out.add(missed)
                 bar.advance(note=f"{missed} missed: screened out")
+                continue
+            wanted.append(missed)
         return wanted
 
     def keep_evidence(missed: int, output: tuple) -> None:
@@ -635,7 +648,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     # One bar for every fit: the models, and the numberings screened or fitted.
     with reporter.bar(len(models) + len(renumbered), "sampling", "fit") as bar:
         if workers == 1:
-            screen()
+            screen_numberings()
             wanted: list[int] = []
             for model in models:
                 output = _fit(posteriors[model], settings, seeds[model])
@@ -658,7 +671,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                 pending = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                            for m in models}
                 _while_sampling(listener, onsets, recording)
-                screen()
+                screen_numberings()
                 while pending:
                     done, _ = wait(pending, return_when=FIRST_COMPLETED)
                     for future in done:

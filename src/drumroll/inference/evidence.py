@@ -336,7 +336,19 @@ def importance_evidence(log_posterior: LogPosterior | Callable[[NDArray], NDArra
     if not k <= PARETO_K_MAX and more > 0:
         log_w = np.concatenate([log_w, log_weights(more)])
         k = pareto_k(log_w)
+    return weighted_evidence(log_w, k)
+
+
+def weighted_evidence(log_w: NDArray, k: float | None = None) -> Evidence:
+    """ln Z = ln mean(w) of importance weights given by their logarithms (−inf allowed), its
+    error sd(w) / (mean(w) √S), their ESS (Σw)²/Σw² and Pareto k̂ (computed here unless
+    given)."""
+    if k is None:
+        k = pareto_k(log_w)
     top = np.max(log_w)
+    if not np.isfinite(top):
+        return Evidence(log_z=-math.inf, log_z_err=math.inf, n_calls=int(log_w.size), ess=0.0,
+                        method="importance", pareto_k=math.inf)
     w = np.exp(log_w - top)
     total = w.sum()
     log_z = top + math.log(total / w.size)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Collection, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,9 +35,10 @@ from scipy import special
 
 from drumroll.distributions import Fixed, OrZero
 from drumroll.inference.coordinates import SamplerCoordinates
+from drumroll.inference.evidence import IMPORTANCE_DRAWS, Evidence, weighted_evidence
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
-from drumroll.inference.sampling import SamplerTarget, find_start
+from drumroll.inference.sampling import SamplerTarget, climb, find_start
 
 #: The largest number of impacts that can be considered missed (each costs one fit).
 MAX_MISSED = 2
@@ -52,6 +53,11 @@ CLEARLY = 0.95
 #: most 1.7 nats wherever the numbering was within 15 nats of its roll's best (median 0.4),
 #: and by 8.6 nats (low) at worst, 19 nats below it.
 SCREEN_NATS = 15.0
+#: The screen's importance proposal: Student-t degrees of freedom, and its scale over the
+#: Laplace fit's (heavier and wider than the posterior, so that the weights stay bounded).
+PROPOSAL_NU, PROPOSAL_INFLATE = 5.0, 1.5
+#: How many times the proposal is refitted to its own weighted draws before ln Z is taken.
+ADAPTATIONS = 2
 
 
 def shifted(data: OnsetData, missed: int) -> OnsetData:
@@ -99,8 +105,28 @@ def missed_warning(model: str, probabilities: Sequence[float]) -> str | None:
 
 
 
-def screen_log_evidence(log_posterior: LogPosterior, seed: int) -> float:
-    """A Laplace estimate of ln Z: the screen that decides which numberings need a fit.
+@dataclass(frozen=True)
+class Branch:
+    """One branch of a screen: the effects held absent (by name), the names of the columns
+    its Laplace fit is over (the sampled ones less those held), and that fit."""
+
+    held: tuple[str, ...]
+    names: tuple[str, ...]
+    estimate: LaplaceEstimate
+    log_z: float
+
+
+@dataclass(frozen=True)
+class Screen:
+    """A numbering's screen (:func:`screen`): the Laplace estimate of its ln Z, summed over
+    the branches of its effects that may be absent."""
+
+    log_z: float
+    branches: tuple[Branch, ...] = ()
+
+
+def screen(log_posterior: LogPosterior, seed: int) -> Screen:
+    """A Laplace estimate of ln Z: the screen of one numbering.
 
     Each effect that may be absent (an atom at 0: the contact time, the scatter) splits the
     integral in two, "absent" and "present", each estimated by :func:`laplace` at its own
@@ -112,30 +138,137 @@ def screen_log_evidence(log_posterior: LogPosterior, seed: int) -> float:
 
     Returns
     -------
-    float
-        The estimate; NaN where no branch has one (then the numbering is fitted).
+    Screen
+        ``log_z`` is NaN where no branch has an estimate (then the numbering is fitted).
     """
     space = log_posterior.space
     atoms = {name: prior for name, prior in space.priors.items() if isinstance(prior, OrZero)}
+    rng = np.random.default_rng(seed)
     branches = []
     for absent in itertools.product((False, True), repeat=len(atoms)):
-        held = {name: Fixed(0.0) for name, out in zip(atoms, absent, strict=True) if out}
+        held = tuple(name for name, out in zip(atoms, absent, strict=True) if out)
         branch = log_posterior
         if held:
-            config = replace(space.config, priors={**space.config.priors, **held})
+            config = replace(space.config, priors={**space.config.priors,
+                                                   **{name: Fixed(0.0) for name in held}})
             branch = type(log_posterior).build(config, space.model, log_posterior.data,
                                                log_posterior.noise, space.priors.get("nu"))
         coordinates = SamplerCoordinates(branch.space, branch.data)
         target = SamplerTarget(branch, coordinates)
-        mode = find_start(target, np.random.default_rng(seed))
+        first = branches[0].estimate if branches else None
+        if first is not None and first.covariance is not None:
+            # An effect held absent moves the mode little: one climb from the first
+            # branch's (every effect present), not a search from the prior.
+            kept = [space.names.index(name) for name in branch.space.names]
+            mode = climb(target, first.mode[kept], np.sqrt(np.diag(first.covariance))[kept])[0]
+        else:
+            mode = find_start(target, rng)
+        estimate = laplace(target, mode, coordinates.bounds())
         # A held atom's prior mass; a present one's is in its slab's density already.
-        branches.append(laplace(target, mode, coordinates.bounds())
-                        + sum(math.log(atoms[name].p_zero) for name in held))
-    finite = [value for value in branches if np.isfinite(value)]
-    return float(special.logsumexp(finite)) if finite else math.nan
+        branches.append(Branch(held, branch.space.names, estimate, estimate.log_z
+                               + sum(math.log(atoms[name].p_zero) for name in held)))
+    finite = [b.log_z for b in branches if np.isfinite(b.log_z)]
+    return Screen(float(special.logsumexp(finite)) if finite else math.nan, tuple(branches))
 
 
-def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray) -> float:
+def screened_evidence(log_posterior: LogPosterior, found: Screen, seed: int,
+                      n: int = IMPORTANCE_DRAWS) -> Evidence | None:
+    """ln Z of a numbering by importance sampling from its screen, in place of a fit where
+    its own diagnostic trusts it (:attr:`Evidence.trusted`; None: no branch to draw from).
+
+    The proposal is the screen's mixture in the sampler coordinates: each branch with a
+    Laplace fit, weighed by its estimate of Z, as a multivariate Student-t
+    (:data:`PROPOSAL_NU` degrees of freedom, :data:`PROPOSAL_INFLATE` times its scale) over
+    its columns, and uniform over the plateau that stands for 0 in each column it holds
+    absent. A Laplace fit is off where the posterior is skewed (the contact time against its
+    prior's end), so the proposal is adapted (population Monte Carlo, Cappé et al. 2004):
+    :data:`ADAPTATIONS` times, each branch's location, scale and share are refitted to
+    ``n / 2`` weighted draws of the last proposal; then ln Z = ln mean(w) over ``n`` fresh
+    draws of the refitted mixture, whose density is exact, so that Z = E_q[p(z) / q(z)].
+    """
+    space = log_posterior.space
+    drawn = [b for b in found.branches
+             if np.isfinite(b.log_z) and b.estimate.covariance is not None]
+    if not drawn:
+        return None
+    rng = np.random.default_rng(seed)
+    target = SamplerTarget(log_posterior, SamplerCoordinates(space, log_posterior.data))
+    columns = {name: i for i, name in enumerate(space.names)}
+    widths = {name: space.priors[name].width for name in space.names
+              if isinstance(space.priors[name], OrZero)}
+    frees = [[columns[name] for name in b.names] for b in drawn]
+    means = [b.estimate.mode for b in drawn]
+    covariances = [PROPOSAL_INFLATE**2 * b.estimate.covariance for b in drawn]
+    shares = special.softmax([b.log_z for b in drawn])
+    sizes = (*(n // 2,) * ADAPTATIONS, n)
+    for stage, size in enumerate(sizes):
+        z, which, log_q = _mixture_draws(drawn, frees, means, covariances, shares, columns,
+                                         widths, size, rng)
+        density = target(z)
+        log_w = np.where(np.isfinite(density), density - log_q, -np.inf)
+        if stage == len(sizes) - 1:
+            return weighted_evidence(log_w)
+        w = np.exp(log_w - np.max(log_w))
+        for index, free in enumerate(frees):
+            mine = w * (which == index)
+            total = mine.sum()
+            if not total > 0.0 or (total**2 / np.sum(mine**2)) < 2 * len(free) + 2:
+                continue  # too few weighted draws to refit this branch
+            shares[index] = total
+            means[index] = mine @ z[:, free] / total
+            centred = z[:, free] - means[index]
+            covariances[index] = (PROPOSAL_INFLATE**2
+                                  * (centred * mine[:, None]).T @ centred / total)
+        shares = shares / shares.sum()
+    raise AssertionError("unreachable")
+
+
+def _mixture_draws(branches: list[Branch], frees: list[list[int]], means: list[NDArray],
+                   covariances: list[NDArray], shares: NDArray, columns: dict[str, int],
+                   widths: dict[str, float], n: int, rng: np.random.Generator
+                   ) -> tuple[NDArray, NDArray, NDArray]:
+    """``n`` draws of the screen's proposal mixture (see :func:`screened_evidence`): the
+    draws, the component each came from, and the mixture's log density at each."""
+    nu = PROPOSAL_NU
+    chols = [np.linalg.cholesky(c) for c in covariances]
+    z = np.empty((n, len(columns)))
+    which = rng.choice(len(branches), size=n, p=shares)
+    for index, (branch, free, chol) in enumerate(zip(branches, frees, chols, strict=True)):
+        rows = np.flatnonzero(which == index)
+        t = rng.standard_normal((rows.size, len(free))) * np.sqrt(
+            nu / rng.chisquare(nu, rows.size))[:, None]
+        z[np.ix_(rows, free)] = means[index] + t @ chol.T
+        for name in branch.held:
+            z[rows, columns[name]] = -widths[name] * rng.random(rows.size)
+    log_q = np.full((len(branches), n), -np.inf)
+    for index, (branch, free, chol) in enumerate(zip(branches, frees, chols, strict=True)):
+        d = len(free)
+        white = np.linalg.solve(chol, (z[:, free] - means[index]).T).T
+        log_t = (math.lgamma(0.5 * (nu + d)) - math.lgamma(0.5 * nu)
+                 - 0.5 * d * math.log(nu * math.pi) - float(np.log(np.diag(chol)).sum())
+                 - 0.5 * (nu + d) * np.log1p(np.einsum("ij,ij->i", white, white) / nu))
+        on_plateau = np.ones(n, bool)
+        for name in branch.held:
+            value = z[:, columns[name]]
+            on_plateau &= (value >= -widths[name]) & (value < 0.0)
+            log_t = log_t - math.log(widths[name])
+        with np.errstate(divide="ignore"):
+            log_q[index] = np.where(on_plateau, math.log(shares[index]) + log_t, -np.inf)
+    return z, which, special.logsumexp(log_q, axis=0)
+
+
+@dataclass(frozen=True)
+class LaplaceEstimate:
+    """Laplace's method at a mode: ln ∫ exp(density) (NaN where it has no answer), and the
+    Gaussian it fits there (``covariance`` = (−H)⁻¹; None where −H is not positive definite)."""
+
+    log_z: float
+    mode: NDArray
+    covariance: NDArray | None = None
+
+
+def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray
+            ) -> LaplaceEstimate:
     """ln ∫ exp(density) over ``box`` by Laplace's method at ``mode``.
 
     Inside the box: ln p(z*) + (d/2) ln 2π − ½ ln det(−H), the Hessian H by central
@@ -151,7 +284,7 @@ def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray) 
     d = mode.size
     centre = float(density(mode[None])[0])
     if not np.isfinite(centre):
-        return math.nan
+        return LaplaceEstimate(math.nan, mode)
     low, high = box[:, 0], box[:, 1]
     width = np.where(np.isfinite(high - low), high - low, np.nan)
     reach = 1e-6 * np.where(np.isfinite(width), width, 1.0)
@@ -170,7 +303,7 @@ def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray) 
         # Falling away from the edge (one-sided, second order).
         slope = -(-3.0 * centre + 4.0 * first - other) / (2.0 * rough)
     if not (np.isfinite(curvature).all() and (curvature < 0).all()):
-        return math.nan
+        return LaplaceEstimate(math.nan, mode)
     h = 1e-3 / np.sqrt(-curvature)
     # The Hessian about a point a few steps inside every edge, so that no step leaves it.
     inside = mode + np.where(edge, inward * 3.0 * h, 0.0)
@@ -180,16 +313,21 @@ def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray) 
              + signs[None, :, 1, None] * (h[j, None] * unit[j])[:, None, :])
     values = density((inside + steps).reshape(-1, d)).reshape(len(i), 4)
     if not np.isfinite(values).all():
-        return math.nan
+        return LaplaceEstimate(math.nan, mode)
     # (f(++) − f(+−) − f(−+) + f(−−)) / (4 h_i h_j); on the diagonal the steps are 2h_i.
     hessian = np.zeros((d, d))
     hessian[i, j] = hessian[j, i] = ((values[:, 0] - values[:, 1] - values[:, 2] + values[:, 3])
                                      / (4.0 * h[i] * h[j]))
+    try:
+        covariance = np.linalg.inv(np.linalg.cholesky(-hessian))
+        covariance = covariance.T @ covariance
+    except np.linalg.LinAlgError:
+        covariance = None
     free, edges = np.flatnonzero(~edge), np.flatnonzero(edge)
     negative = -hessian[np.ix_(free, free)]
     sign, log_det = np.linalg.slogdet(negative) if free.size else (1.0, 0.0)
     if sign <= 0:
-        return math.nan
+        return LaplaceEstimate(math.nan, mode, covariance)
     log_z = centre + 0.5 * free.size * math.log(2.0 * math.pi) - 0.5 * log_det
     if edges.size:
         cross = hessian[np.ix_(edges, free)]
@@ -202,5 +340,5 @@ def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray) 
             elif g > 0.0:
                 log_z -= math.log(g)
             else:
-                return math.nan
-    return log_z
+                return LaplaceEstimate(math.nan, mode, covariance)
+    return LaplaceEstimate(log_z, mode, covariance)

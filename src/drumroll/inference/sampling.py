@@ -191,7 +191,7 @@ def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 
     spread = np.where(spread > 0, spread, 1.0)
     best, best_value = z[np.argmax(density)], float(np.max(density))
     for start in z[np.argsort(density)[::-1][:n_starts]]:
-        point, value = _climb(target, start, spread)
+        point, value = climb(target, start, spread)
         if value > best_value:
             best, best_value = point, value
     return best
@@ -329,7 +329,7 @@ def _first_walk(target: SamplerTarget, start: NDArray, settings: SamplerSettings
                          _walk_seeds(settings)[1])
 
 
-def _climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int = 6
+def climb(target: SamplerTarget, start: NDArray, spread: NDArray, attempts: int = 6
            ) -> tuple[NDArray, float]:
     """L-BFGS-B from ``start`` inside the priors' box (see :func:`find_start`): the point
     reached and its density.
