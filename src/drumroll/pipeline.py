@@ -612,10 +612,13 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     renumbered_log_z: dict[int, float] = {}
 
     def screen_numberings() -> None:
+        begun = time.perf_counter()
         for missed, log_posterior in renumbered.items():
             screens[missed] = screen(log_posterior, seeds[config.model])
             screen_evidences[missed] = screened_evidence(log_posterior, screens[missed],
                                                          seeds[config.model])
+        if renumbered:  # while the models are sampled: part of "sampling", shown apart
+            seconds["missed_first_screen"] = time.perf_counter() - begun
 
     def numberings_to_fit(bar) -> list[int]:
         """Once the main fit is back: the numberings that need a fit. Not those whose
