@@ -21,7 +21,7 @@ importance-sampling evidence), unless the Laplace estimate falls :data:`SCREEN_N
 Z_0: its probability is then given as a bound, below 3e-7. Against fitted evidences of 45
 numberings (the five bundled stick rolls other than table2_h80, each whole and with its
 first one or two onsets cut off, numbered from impacts 0, 1 and 2), the sampled estimate was
-trusted on 35, within 0.04 nat of the fit in the median and 0.22 at worst where the
+trusted on 37, within 0.04 nat of the fit in the median and 0.37 at worst where the
 numbering was within 15 nats of the roll's best (1.1 at worst, 24 nats below it). A warning
 is given where m = 0 is not clearly preferred.
 """
@@ -61,8 +61,9 @@ SCREEN_NATS = 15.0
 #: The screen's importance proposal: Student-t degrees of freedom, and its scale over the
 #: Laplace fit's (heavier and wider than the posterior, so that the weights stay bounded).
 PROPOSAL_NU, PROPOSAL_INFLATE = 5.0, 1.5
-#: How many times the proposal is refitted to its own weighted draws before ln Z is taken.
-ADAPTATIONS = 2
+#: How many times the proposal is refitted to its own weighted draws before ln Z is taken,
+#: and the least share of it a branch keeps.
+ADAPTATIONS, MIN_SHARE = 2, 0.01
 
 
 def shifted(data: OnsetData, missed: int) -> OnsetData:
@@ -92,7 +93,7 @@ def missed_note(model: str, probabilities: Sequence[float], screened: Collection
 
 
 def needs_fit(screened_log_z: float, main_log_z: float) -> bool:
-    """Whether a numbering screened at ``screened_log_z`` (:func:`screen_log_evidence`)
+    """Whether a numbering screened at ``screened_log_z`` (:func:`screen`)
     needs a fit of its own against the first onset's numbering's fitted ``main_log_z``: all
     but those at least :data:`SCREEN_NATS` below it (and any the screen could not estimate)."""
     return not screened_log_z < main_log_z - SCREEN_NATS
@@ -108,6 +109,100 @@ def missed_warning(model: str, probabilities: Sequence[float]) -> str | None:
             "check the recording's start (onsets.png), or number the onsets with a bounce "
             "column")
 
+
+@dataclass(frozen=True)
+class LaplaceEstimate:
+    """Laplace's method at a mode: ln ∫ exp(density) (NaN where it has no answer), and the
+    Gaussian it fits there (``covariance`` = (−H)⁻¹; None where −H is not positive definite)."""
+
+    log_z: float
+    mode: NDArray
+    covariance: NDArray | None = None
+
+
+def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray
+            ) -> LaplaceEstimate:
+    """ln ∫ exp(density) over ``box`` by Laplace's method at ``mode``.
+
+    Inside the box: ln p(z*) + (d/2) ln 2π − ½ ln det(−H), the Hessian H by central
+    differences in one batched call, each step a thousandth of its column's curvature scale.
+    A column whose mode lies on the box's edge (a prior's bound: the contact time at the end
+    of its range) is integrated over its one side: with the other columns integrated out as
+    a Gaussian, the density falls away from the edge with the slope g and the marginal
+    curvature c (H's Schur complement, H taken a few steps inside), and
+    ∫₀^∞ exp(−g u − ½|c| u²) du = √(π / 2|c|) erfcx(g / √(2|c|)); several such columns are
+    taken as independent. NaN where a difference leaves the support or −H is not positive
+    definite.
+    """
+    d = mode.size
+    centre = float(density(mode[None])[0])
+    if not np.isfinite(centre):
+        return LaplaceEstimate(math.nan, mode)
+    low, high = box[:, 0], box[:, 1]
+    width = np.where(np.isfinite(high - low), high - low, np.nan)
+    reach = 1e-6 * np.where(np.isfinite(width), width, 1.0)
+    inward = np.where(mode - low <= reach, 1.0, np.where(high - mode <= reach, -1.0, 0.0))
+    unit = np.eye(d)
+    for _ in range(2):
+        edge = inward != 0.0
+        # Rough curvature scales: central differences inside, one-sided ones on an edge.
+        rough = 1e-4 * np.where(edge & np.isfinite(width), width,
+                                np.maximum(np.abs(mode), 1.0))
+        offsets = np.where(edge, inward, 1.0)[:, None] * rough[:, None] * unit
+        second = np.where(edge, 2.0, -1.0)[:, None] * offsets
+        around = density(mode + np.concatenate([offsets, second]))
+        first, other = around[:d], around[d:]
+        # A mode against the edge of the region the physics allows (a renumbered roll that
+        # the stick can only just make) has one side of a column forbidden: an edge too.
+        implicit = ~edge & (np.isfinite(first) != np.isfinite(other))
+        if not implicit.any():
+            break
+        inward = np.where(implicit, np.where(np.isfinite(first), 1.0, -1.0), inward)
+    with np.errstate(invalid="ignore"):
+        curvature = np.where(edge, centre - 2.0 * first + other, first + other - 2.0 * centre
+                             ) / rough**2
+        # Falling away from the edge (one-sided, second order).
+        slope = -(-3.0 * centre + 4.0 * first - other) / (2.0 * rough)
+    if not (np.isfinite(curvature).all() and (curvature < 0).all()):
+        return LaplaceEstimate(math.nan, mode)
+    h = 1e-3 / np.sqrt(-curvature)
+    # The Hessian about a point a few steps inside every edge, so that no step leaves it.
+    inside = mode + np.where(edge, inward * 3.0 * h, 0.0)
+    i, j = np.triu_indices(d)
+    signs = np.array([(1, 1), (1, -1), (-1, 1), (-1, -1)], float)
+    steps = (signs[None, :, 0, None] * (h[i, None] * unit[i])[:, None, :]
+             + signs[None, :, 1, None] * (h[j, None] * unit[j])[:, None, :])
+    values = density((inside + steps).reshape(-1, d)).reshape(len(i), 4)
+    if not np.isfinite(values).all():
+        return LaplaceEstimate(math.nan, mode)
+    # (f(++) − f(+−) − f(−+) + f(−−)) / (4 h_i h_j); on the diagonal the steps are 2h_i.
+    hessian = np.zeros((d, d))
+    hessian[i, j] = hessian[j, i] = ((values[:, 0] - values[:, 1] - values[:, 2] + values[:, 3])
+                                     / (4.0 * h[i] * h[j]))
+    try:
+        covariance = np.linalg.inv(np.linalg.cholesky(-hessian))
+        covariance = covariance.T @ covariance
+    except np.linalg.LinAlgError:
+        covariance = None
+    free, edges = np.flatnonzero(~edge), np.flatnonzero(edge)
+    negative = -hessian[np.ix_(free, free)]
+    sign, log_det = np.linalg.slogdet(negative) if free.size else (1.0, 0.0)
+    if sign <= 0:
+        return LaplaceEstimate(math.nan, mode, covariance)
+    log_z = centre + 0.5 * free.size * math.log(2.0 * math.pi) - 0.5 * log_det
+    if edges.size:
+        cross = hessian[np.ix_(edges, free)]
+        marginal = -(np.diag(hessian[np.ix_(edges, edges)])
+                     - np.einsum("ef,ef->e", cross, np.linalg.solve(negative, -cross.T).T))
+        for g, c in zip(slope[edges], marginal, strict=True):
+            if c > 0.0:
+                scale = math.sqrt(2.0 * c)
+                log_z += math.log(math.sqrt(math.pi) / scale * special.erfcx(g / scale))
+            elif g > 0.0:
+                log_z -= math.log(g)
+            else:
+                return LaplaceEstimate(math.nan, mode, covariance)
+    return LaplaceEstimate(log_z, mode, covariance)
 
 
 @dataclass(frozen=True)
@@ -205,27 +300,39 @@ def screened_evidence(log_posterior: LogPosterior, found: Screen, seed: int,
     means = [b.estimate.mode for b in drawn]
     covariances = [PROPOSAL_INFLATE**2 * b.estimate.covariance for b in drawn]
     shares = special.softmax([b.log_z for b in drawn])
-    sizes = (*(n // 2,) * ADAPTATIONS, n)
-    for stage, size in enumerate(sizes):
-        z, which, log_q = _mixture_draws(drawn, frees, means, covariances, shares, columns,
-                                         widths, size, rng)
-        density = target(z)
-        log_w = np.where(np.isfinite(density), density - log_q, -np.inf)
-        if stage == len(sizes) - 1:
-            return weighted_evidence(log_w)
-        w = np.exp(log_w - np.max(log_w))
+    for _ in range(ADAPTATIONS):
+        z, which, log_w = _weighted_draws(target, drawn, frees, means, covariances, shares,
+                                          columns, widths, n // 2, rng)
+        w = np.exp(log_w - np.max(log_w)) if np.isfinite(log_w).any() else np.zeros(n // 2)
+        totals = np.array([w[which == index].sum() for index in range(len(drawn))])
+        if not totals.sum() > 0.0:
+            break
         for index, free in enumerate(frees):
             mine = w * (which == index)
-            total = mine.sum()
-            if not total > 0.0 or (total**2 / np.sum(mine**2)) < 2 * len(free) + 2:
-                continue  # too few weighted draws to refit this branch
-            shares[index] = total
-            means[index] = mine @ z[:, free] / total
+            if (totals[index] ** 2 / max(np.sum(mine**2), 1e-300)) < 2 * len(free) + 2:
+                continue  # too few weighted draws to refit this branch's shape
+            means[index] = mine @ z[:, free] / totals[index]
             centred = z[:, free] - means[index]
             covariances[index] = (PROPOSAL_INFLATE**2
-                                  * (centred * mine[:, None]).T @ centred / total)
+                                  * (centred * mine[:, None]).T @ centred / totals[index])
+        # Each branch's share of the posterior mass, never below a hundredth of it: a branch
+        # the first draws missed stays in the proposal.
+        shares = np.maximum(totals / totals.sum(), MIN_SHARE)
         shares = shares / shares.sum()
-    raise AssertionError("unreachable")
+    return weighted_evidence(_weighted_draws(target, drawn, frees, means, covariances, shares,
+                                             columns, widths, n, rng)[2])
+
+
+def _weighted_draws(target: SamplerTarget, branches: list[Branch], frees: list[list[int]],
+                    means: list[NDArray], covariances: list[NDArray], shares: NDArray,
+                    columns: dict[str, int], widths: dict[str, float], n: int,
+                    rng: np.random.Generator) -> tuple[NDArray, NDArray, NDArray]:
+    """``n`` draws of the proposal mixture (:func:`_mixture_draws`), the component each came
+    from, and their log importance weights ln p(z) − ln q(z) (−inf where p is 0)."""
+    z, which, log_q = _mixture_draws(branches, frees, means, covariances, shares, columns,
+                                     widths, n, rng)
+    density = target(z)
+    return z, which, np.where(np.isfinite(density), density - log_q, -np.inf)
 
 
 def _mixture_draws(branches: list[Branch], frees: list[list[int]], means: list[NDArray],
@@ -260,98 +367,3 @@ def _mixture_draws(branches: list[Branch], frees: list[list[int]], means: list[N
         with np.errstate(divide="ignore"):
             log_q[index] = np.where(on_plateau, math.log(shares[index]) + log_t, -np.inf)
     return z, which, special.logsumexp(log_q, axis=0)
-
-
-@dataclass(frozen=True)
-class LaplaceEstimate:
-    """Laplace's method at a mode: ln ∫ exp(density) (NaN where it has no answer), and the
-    Gaussian it fits there (``covariance`` = (−H)⁻¹; None where −H is not positive definite)."""
-
-    log_z: float
-    mode: NDArray
-    covariance: NDArray | None = None
-
-
-def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray
-            ) -> LaplaceEstimate:
-    """ln ∫ exp(density) over ``box`` by Laplace's method at ``mode``.
-
-    Inside the box: ln p(z*) + (d/2) ln 2π − ½ ln det(−H), the Hessian H by central
-    differences in one batched call, each step a thousandth of its column's curvature scale.
-    A column whose mode lies on the box's edge (a prior's bound: the contact time at the end
-    of its range) is integrated over its one side: with the other columns integrated out as
-    a Gaussian, the density falls away from the edge with the slope g and the marginal
-    curvature c (H's Schur complement, H taken a few steps inside), and
-    ∫₀^∞ exp(−g u − ½|c| u²) du = √(π / 2|c|) erfcx(g / √(2|c|)); several such columns are
-    taken as independent. NaN where a difference leaves the support or −H is not positive
-    definite.
-    """
-    d = mode.size
-    centre = float(density(mode[None])[0])
-    if not np.isfinite(centre):
-        return LaplaceEstimate(math.nan, mode)
-    low, high = box[:, 0], box[:, 1]
-    width = np.where(np.isfinite(high - low), high - low, np.nan)
-    reach = 1e-6 * np.where(np.isfinite(width), width, 1.0)
-    inward = np.where(mode - low <= reach, 1.0, np.where(high - mode <= reach, -1.0, 0.0))
-    unit = np.eye(d)
-    for _ in range(2):
-        edge = inward != 0.0
-        # Rough curvature scales: central differences inside, one-sided ones on an edge.
-        rough = 1e-4 * np.where(edge & np.isfinite(width), width,
-                                np.maximum(np.abs(mode), 1.0))
-        offsets = np.where(edge, inward, 1.0)[:, None] * rough[:, None] * unit
-        second = np.where(edge, 2.0, -1.0)[:, None] * offsets
-        around = density(mode + np.concatenate([offsets, second]))
-        first, other = around[:d], around[d:]
-        # A mode against the edge of the region the physics allows (a renumbered roll that
-        # the stick can only just make) has one side of a column forbidden: an edge too.
-        implicit = ~edge & (np.isfinite(first) != np.isfinite(other))
-        if not implicit.any():
-            break
-        inward = np.where(implicit, np.where(np.isfinite(first), 1.0, -1.0), inward)
-    with np.errstate(invalid="ignore"):
-        curvature = np.where(edge, centre - 2.0 * first + other, first + other - 2.0 * centre
-                             ) / rough**2
-        # Falling away from the edge (one-sided, second order).
-        slope = -(-3.0 * centre + 4.0 * first - other) / (2.0 * rough)
-    if not (np.isfinite(curvature).all() and (curvature < 0).all()):
-        return LaplaceEstimate(math.nan, mode)
-    h = 1e-3 / np.sqrt(-curvature)
-    # The Hessian about a point a few steps inside every edge, so that no step leaves it.
-    inside = mode + np.where(edge, inward * 3.0 * h, 0.0)
-    i, j = np.triu_indices(d)
-    signs = np.array([(1, 1), (1, -1), (-1, 1), (-1, -1)], float)
-    steps = (signs[None, :, 0, None] * (h[i, None] * unit[i])[:, None, :]
-             + signs[None, :, 1, None] * (h[j, None] * unit[j])[:, None, :])
-    values = density((inside + steps).reshape(-1, d)).reshape(len(i), 4)
-    if not np.isfinite(values).all():
-        return LaplaceEstimate(math.nan, mode)
-    # (f(++) − f(+−) − f(−+) + f(−−)) / (4 h_i h_j); on the diagonal the steps are 2h_i.
-    hessian = np.zeros((d, d))
-    hessian[i, j] = hessian[j, i] = ((values[:, 0] - values[:, 1] - values[:, 2] + values[:, 3])
-                                     / (4.0 * h[i] * h[j]))
-    try:
-        covariance = np.linalg.inv(np.linalg.cholesky(-hessian))
-        covariance = covariance.T @ covariance
-    except np.linalg.LinAlgError:
-        covariance = None
-    free, edges = np.flatnonzero(~edge), np.flatnonzero(edge)
-    negative = -hessian[np.ix_(free, free)]
-    sign, log_det = np.linalg.slogdet(negative) if free.size else (1.0, 0.0)
-    if sign <= 0:
-        return LaplaceEstimate(math.nan, mode, covariance)
-    log_z = centre + 0.5 * free.size * math.log(2.0 * math.pi) - 0.5 * log_det
-    if edges.size:
-        cross = hessian[np.ix_(edges, free)]
-        marginal = -(np.diag(hessian[np.ix_(edges, edges)])
-                     - np.einsum("ef,ef->e", cross, np.linalg.solve(negative, -cross.T).T))
-        for g, c in zip(slope[edges], marginal, strict=True):
-            if c > 0.0:
-                scale = math.sqrt(2.0 * c)
-                log_z += math.log(math.sqrt(math.pi) / scale * special.erfcx(g / scale))
-            elif g > 0.0:
-                log_z -= math.log(g)
-            else:
-                return LaplaceEstimate(math.nan, mode, covariance)
-    return LaplaceEstimate(log_z, mode, covariance)
