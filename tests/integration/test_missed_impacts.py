@@ -46,6 +46,7 @@ def test_a_roll_whose_first_impact_is_cut_off_is_numbered_from_impact_one(tmp_pa
     assert whole[2] < 1e-6
     assert any("P(2) " in note for note in found["whole"]["notes"])
     assert "the first onset may not be the roll's first impact" in printed
+    assert "every number given assumes none was missed" in printed
     assert any("P(none missed)" in w for w in found["late"]["diagnostics"]["pendulum"]["warnings"])
     assert not any("P(none missed)" in w
                    for w in found["whole"]["diagnostics"]["pendulum"]["warnings"])

@@ -105,9 +105,9 @@ def missed_warning(model: str, probabilities: Sequence[float]) -> str | None:
         return None
     likeliest = int(np.argmax(probabilities))
     return (f"{model}: the first onset may not be the roll's first impact: P(none missed) = "
-            f"{probabilities[0]:.2g}, P({likeliest} missed) = {probabilities[likeliest]:.2g}; "
-            "check the recording's start (onsets.png), or number the onsets with a bounce "
-            "column")
+            f"{probabilities[0]:.2g}, P({likeliest} missed) = {probabilities[likeliest]:.2g}, "
+            "while every number given assumes none was missed; check the recording's start "
+            "(onsets.png), or number the onsets with a bounce column")
 
 
 @dataclass(frozen=True)
