@@ -30,14 +30,16 @@ def student_t_logpdf_fixed(z2: ArrayLike, nu: float, log_scale: ArrayLike = 0.0)
     scipy's ``gammaln`` to within a few units in the last place (1e-15), which no onset
     decision can see."""
     nu = float(nu)
-    return (_t_log_norm(nu) - log_scale
+    return (student_t_log_norm(nu) - log_scale
             - 0.5 * (nu + 1.0) * np.log1p(np.asarray(z2, float) / nu))
 
 
 @functools.lru_cache(maxsize=64)
-def _t_log_norm(nu: float) -> float:
-    """log of the Student t's normalising constant, Γ((ν+1)/2) / (Γ(ν/2) √(νπ))."""
-    return math.lgamma(0.5 * (nu + 1.0)) - math.lgamma(0.5 * nu) - 0.5 * math.log(nu * math.pi)
+def student_t_log_norm(nu: float, dim: int = 1) -> float:
+    """log of the normalising constant of a ``dim``-variate Student t with unit scale,
+    Γ((ν+d)/2) / (Γ(ν/2) (νπ)^(d/2))."""
+    return (math.lgamma(0.5 * (nu + dim)) - math.lgamma(0.5 * nu)
+            - 0.5 * dim * math.log(nu * math.pi))
 
 
 @functools.cache

@@ -21,6 +21,7 @@ from scipy import special
 from drumroll.inference.coordinates import AtomGeometry, SamplerCoordinates
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.psis import pareto_k
+from drumroll.stats import student_t_log_norm
 
 #: dynesty's floor for points the physics forbids (it needs a finite number).
 _FLOOR = -1e300
@@ -152,8 +153,8 @@ class ReferenceProblem:
         self.ndim = z.shape[1]
         self.mean = z.mean(axis=0)
         self.chol = np.linalg.cholesky(np.atleast_2d(np.cov(z, rowvar=False)) * inflate**2)
-        self.log_norm = (self.ndim * (math.lgamma(0.5 * (nu + 1.0)) - math.lgamma(0.5 * nu)
-                                      - 0.5 * math.log(nu * math.pi))
+        # Independent Student-t columns, whitened by the Cholesky factor.
+        self.log_norm = (self.ndim * student_t_log_norm(nu)
                          - float(np.log(np.diag(self.chol)).sum()))
 
     def prior_transform(self, u: NDArray) -> NDArray:
@@ -292,8 +293,7 @@ def importance_evidence(log_posterior: LogPosterior | Callable[[NDArray], NDArra
     n_kernels = len(kernels)
     width = (4.0 / (ndim + 2.0)) ** (1.0 / (ndim + 4.0)) * n_kernels ** (-1.0 / (ndim + 4.0))
     squared_norms = np.einsum("ij,ij->i", kernels, kernels)
-    log_t = (math.lgamma(0.5 * (nu + ndim)) - math.lgamma(0.5 * nu)
-             - 0.5 * ndim * math.log(nu * math.pi))
+    log_t = student_t_log_norm(nu, ndim)
     log_shares = (math.log1p(-defensive) - ndim * math.log(width) - math.log(n_kernels),
                   math.log(defensive) - ndim * math.log(defensive_inflate))
     log_jacobian = float(np.log(np.diag(chol)).sum())

@@ -43,6 +43,7 @@ from drumroll.inference.evidence import IMPORTANCE_DRAWS, Evidence, weighted_evi
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import SamplerTarget, climb, find_start
+from drumroll.stats import student_t_log_norm
 
 #: The largest number of impacts that can be considered missed (each costs one fit).
 MAX_MISSED = 2
@@ -158,6 +159,8 @@ def laplace(density: Callable[[NDArray], NDArray], mode: NDArray, box: NDArray
         if not implicit.any():
             break
         inward = np.where(implicit, np.where(np.isfinite(first), 1.0, -1.0), inward)
+    else:  # the one-sided steps of the edges found met yet more forbidden sides
+        return LaplaceEstimate(math.nan, mode)
     with np.errstate(invalid="ignore"):
         curvature = np.where(edge, centre - 2.0 * first + other, first + other - 2.0 * centre
                              ) / rough**2
@@ -356,8 +359,7 @@ def _mixture_draws(branches: list[Branch], frees: list[list[int]], means: list[N
     for index, (branch, free, chol) in enumerate(zip(branches, frees, chols, strict=True)):
         d = len(free)
         white = np.linalg.solve(chol, (z[:, free] - means[index]).T).T
-        log_t = (math.lgamma(0.5 * (nu + d)) - math.lgamma(0.5 * nu)
-                 - 0.5 * d * math.log(nu * math.pi) - float(np.log(np.diag(chol)).sum())
+        log_t = (student_t_log_norm(nu, d) - float(np.log(np.diag(chol)).sum())
                  - 0.5 * (nu + d) * np.log1p(np.einsum("ij,ij->i", white, white) / nu))
         on_plateau = np.ones(n, bool)
         for name in branch.held:
