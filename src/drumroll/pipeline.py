@@ -36,11 +36,12 @@ from drumroll.inference.inference_data import build_draws, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.missed_impacts import (
     EVIDENCE_ONLY_ESS,
-    Screen,
+    Numberings,
     missed_note,
     missed_probabilities,
     missed_warning,
     needs_fit,
+    renumbering,
     screen,
     screened_evidence,
     shifted,
@@ -61,7 +62,7 @@ from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.inference.space import ParameterSpace
 from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
 from drumroll.physics.models import forward_model
-from drumroll.progress import ProgressLike, as_progress
+from drumroll.progress import Progress, ProgressLike, as_progress
 from drumroll.quantities import BY_NAME
 from drumroll.reporting.numbers import format_value_error
 from drumroll.workers import process_pool
@@ -518,7 +519,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     started = time.perf_counter()
     name = "the onsets" if isinstance(source, OnsetTable) else str(source)
     fitted = choose_roll(load_onsets(source, **onset_options), roll, name)
-    onsets, data = fitted.onsets, fitted.data
+    onsets = fitted.onsets
     seconds["onsets"] = time.perf_counter() - started
     of_roll = f" in roll {fitted.roll}" if len(fitted.sizes) > 1 else ""
     if len(onsets) < MIN_ONSETS:
@@ -531,6 +532,44 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         # The onset figure reads the audio stream the onsets came from.
         recording = AudioSource(recording, onset_options["stream"])
 
+    source_name = None if isinstance(source, OnsetTable) else str(source)
+    numberings = Numberings()
+    begun = time.perf_counter()
+    try:
+        return _fit_models(config, settings, fitted, recording, numberings, reporter=reporter,
+                           listener=listener, seconds=seconds, source=source_name)
+    except _Renumber as renumber:
+        # The first onset's numbering fitted the main model worse than another: every number
+        # of these fits would carry that misfit, so the models are fitted again.
+        seconds["first_numbering"] = time.perf_counter() - begun
+        say(f"{config.model}: the first onset is likelier impact {renumber.numbered_from} than "
+            f"impact 0 ({renumber.why}): fitting every model again with that numbering")
+        return _fit_models(config, settings, fitted, recording, numberings, reporter=reporter,
+                           listener=listener, seconds=seconds, source=source_name,
+                           numbered_from=renumber.numbered_from)
+
+
+class _Renumber(Exception):
+    """Raised out of the first pass of :func:`_fit_models`: fit with another numbering."""
+
+    def __init__(self, numbered_from: int, why: str) -> None:
+        super().__init__(numbered_from)
+        self.numbered_from, self.why = numbered_from, why
+
+
+def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
+                recording: Path | AudioSource | None, numberings: Numberings, *,
+                reporter: Progress, listener: EstimateListener | None,
+                seconds: dict[str, float], source: str | None,
+                numbered_from: int = 0) -> Result:
+    """:func:`estimate`'s fits, comparison and summary of the roll ``fitted``, its first onset
+    numbered as impact ``numbered_from``. In the first pass (``numbered_from`` 0), raises
+    :class:`_Renumber` as soon as the numberings' evidences put another numbering ahead
+    (:func:`~drumroll.inference.missed_impacts.renumbering`); the numberings' ln Z stay in
+    ``numberings`` for the next pass, which fits none of them again."""
+    say = reporter.say
+    first_pass = numbered_from == 0
+    onsets, data = fitted.onsets, shifted(fitted.data, numbered_from)
     models = config.models
     workers = max(1, min(settings.workers, len(models)))
     evidence_note = {"auto": "with evidences, ", "nested": "with evidences by nested sampling, ",
@@ -599,26 +638,44 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     # its evidence while the models are sampled; its evidence is then importance sampled
     # from the screen, and it is fitted only where that fails its diagnostic and the screen
     # does not put it far below the main fit's.
-    renumbered = {}
-    if forward_model(config.model).needs_stick and settings.evidence != "none":
-        renumbered = {missed: LogPosterior.build(config, config.model, shifted(data, missed),
-                                                 settings.noise, settings.nu)
-                      for missed in range(1, settings.missed_first + 1)}
+    numbered = (forward_model(config.model).needs_stick and settings.evidence != "none"
+                and settings.missed_first > 0)
+    renumbered = {} if not numbered else {
+        missed: LogPosterior.build(config, config.model, shifted(fitted.data, missed),
+                                   settings.noise, settings.nu)
+        for missed in range(settings.missed_first + 1)
+        if missed != numbered_from and missed not in numberings.log_z}
     evidence_settings = replace(settings, sampler=replace(
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
-    screens: dict[int, Screen] = {}
-    screen_evidences: dict[int, Evidence | None] = {}
-    screened_out: set[int] = set()
-    renumbered_log_z: dict[int, float] = {}
+    screens, screen_evidences = numberings.screens, numberings.screen_evidences
 
     def screen_numberings() -> None:
+        """Screen each other numbering (and in the first pass the fitted one too, so that a
+        roll that begins late is refitted before its misnumbered fits end: they are slow, as
+        a model that fits badly is); then :func:`check_screens`."""
         begun = time.perf_counter()
-        for missed, log_posterior in renumbered.items():
+        targets = dict(renumbered)
+        if first_pass and renumbered:
+            targets[numbered_from] = posteriors[config.model]
+        for missed, log_posterior in targets.items():
+            if missed in screens:  # in the first pass
+                continue
             screens[missed] = screen(log_posterior, seeds[config.model])
             screen_evidences[missed] = screened_evidence(log_posterior, screens[missed],
                                                          seeds[config.model])
         if renumbered:  # while the models are sampled: part of "sampling", shown apart
-            seconds["missed_first_screen"] = time.perf_counter() - begun
+            seconds["missed_first_screen"] = (seconds.get("missed_first_screen", 0.0)
+                                              + time.perf_counter() - begun)
+        check_screens()
+
+    def check_screens() -> None:
+        """In the first pass: stop at once for another numbering that the screens show is
+        the likelier (``Numberings.early_renumbering``)."""
+        if not (first_pass and renumbered):
+            return
+        likeliest = numberings.early_renumbering(numbered_from)
+        if likeliest is not None:
+            raise _Renumber(likeliest, "by their screens")
 
     def numberings_to_fit(bar) -> list[int]:
         """Once the main fit is back: the numberings that need a fit. Not those whose
@@ -627,15 +684,15 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         keep their screened ln Z, and their probability is given as a bound)."""
         main_log_z = fits[config.model].evidence.log_z
         wanted = []
-        for missed, found in screens.items():
-            evidence = screen_evidences[missed]
+        for missed in renumbered:
+            found, evidence = screens[missed], screen_evidences[missed]
             if evidence is not None and evidence.trusted:
-                renumbered_log_z[missed] = evidence.log_z
+                numberings.log_z[missed] = evidence.log_z
                 bar.advance(note=f"{missed} missed: from its screen")
                 continue
             if not needs_fit(found.log_z, main_log_z):
-                renumbered_log_z[missed] = found.log_z
-                screened_out.add(missed)
+                numberings.log_z[missed] = found.log_z
+                numberings.screened_out.add(missed)
                 bar.advance(note=f"{missed} missed: screened out")
                 continue
             wanted.append(missed)
@@ -643,29 +700,47 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
 
     def keep_evidence(missed: int, output: tuple) -> None:
         evidence = output[1]
-        renumbered_log_z[missed] = -math.inf if evidence is None else evidence.log_z
+        numberings.log_z[missed] = -math.inf if evidence is None else evidence.log_z
 
     def renumbered_fit(missed: int) -> tuple:
         return _fit, renumbered[missed], evidence_settings, seeds[config.model]
+
+    def probabilities() -> tuple[float, ...]:
+        """P(m) for m = 0 … missed_first, once every numbering's ln Z is known (else ())."""
+        main = fits.get(config.model)
+        if not numbered or main is None or main.evidence is None:
+            return ()
+        log_z = {**numberings.log_z, numbered_from: main.evidence.log_z}
+        if len(log_z) <= settings.missed_first:
+            return ()
+        return missed_probabilities([log_z[m] for m in range(settings.missed_first + 1)])
+
+    def check_numbering() -> None:
+        """In the first pass: stop for another numbering as soon as it is the likelier."""
+        found = probabilities() if first_pass else ()
+        likeliest = renumbering(found, numbered_from) if found else None
+        if likeliest is not None:
+            numberings.log_z[numbered_from] = fits[config.model].evidence.log_z
+            raise _Renumber(likeliest, f"P = {found[likeliest]:.3g} against "
+                                       f"{found[numbered_from]:.2g}")
 
     # One bar for every fit: the models, and the numberings screened or fitted.
     with reporter.bar(len(models) + len(renumbered), "sampling", "fit") as bar:
         if workers == 1:
             screen_numberings()
-            wanted: list[int] = []
             for model in models:
                 output = _fit(posteriors[model], settings, seeds[model])
-                if not fits:
+                if not fits and first_pass:
                     _while_sampling(listener, onsets, recording)
                 finish(model, output)
                 say(f"{model}: done")
                 bar.advance(note=model)
                 if model == config.model and renumbered:
-                    wanted = numberings_to_fit(bar)
-            for missed in wanted:
-                function, *arguments = renumbered_fit(missed)
-                keep_evidence(missed, function(*arguments))
-                bar.advance(note=f"{missed} missed")
+                    for missed in numberings_to_fit(bar):
+                        function, *arguments = renumbered_fit(missed)
+                        keep_evidence(missed, function(*arguments))
+                        bar.advance(note=f"{missed} missed")
+                    check_numbering()
         else:
             # emcee before the workers fork, so that they share it; the figures' libraries
             # and so on after, while the workers sample.
@@ -673,7 +748,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             with process_pool(workers) as pool:
                 pending = {pool.submit(_fit, posteriors[m], settings, seeds[m]): m
                            for m in models}
-                _while_sampling(listener, onsets, recording)
+                if first_pass:
+                    _while_sampling(listener, onsets, recording)
                 screen_numberings()
                 while pending:
                     done, _ = wait(pending, return_when=FIRST_COMPLETED)
@@ -682,6 +758,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                         if isinstance(task, int):
                             keep_evidence(task, future.result())
                             bar.advance(note=f"{task} missed")
+                            check_numbering()
                             continue
                         finish(task, future.result())
                         say(f"{task}: done")
@@ -689,6 +766,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                         if task == config.model and renumbered:
                             pending.update({pool.submit(*renumbered_fit(missed)): missed
                                             for missed in numberings_to_fit(bar)})
+                            check_numbering()
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
@@ -710,10 +788,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     parameters = main.stats
-    missed_first: tuple[float, ...] = ()
-    if renumbered and main.evidence is not None:
-        missed_first = missed_probabilities(
-            [main.evidence.log_z, *(renumbered_log_z[m] for m in sorted(renumbered))])
+    missed_first = probabilities()
     model_diagnostics = {}
     evidence_entries = {}
     for m, fit in fits.items():
@@ -724,7 +799,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
                 model_diagnostics[m] = replace(
                     model_diagnostics[m],
                     warnings=(*model_diagnostics[m].warnings, f"{m}: {warning}"))
-        missed_warned = missed_warning(m, missed_first) if m == config.model else None
+        missed_warned = (missed_warning(m, missed_first, numbered_from) if m == config.model
+                         else None)
         if missed_warned:
             model_diagnostics[m] = replace(
                 model_diagnostics[m], warnings=(missed_warned, *model_diagnostics[m].warnings))
@@ -739,7 +815,8 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         notes=(*fitted.notes, *_release_notes(main.log_posterior.space),
                *_predicted_prior_notes(config, {m: f.log_posterior.space
                                                 for m, f in fits.items()}),
-               *([missed_note(config.model, missed_first, screened_out)]
+               *([missed_note(config.model, missed_first, numberings.screened_out,
+                              numbered_from)]
                  if missed_first else [])),
         missed_first_impacts=missed_first,
         parameters=parameters,
@@ -751,7 +828,7 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
         evidence=evidence_entries, loo={m: loos[m].summary() for m in fits},
         onsets=tuple(Onset(float(t), float(s), int(k)) for t, s, k in zip(
             onsets.time_s, onsets.sigma_s, data.bounces, strict=True)),
-        config=config.raw, source=None if isinstance(source, OnsetTable) else str(source),
+        config=config.raw, source=source,
         version=__version__,
         seconds={**seconds, **{f"{m}_{k}": v for m, f in fits.items()
                                for k, v in f.seconds.items()}})

@@ -22,34 +22,48 @@ def test_probabilities_are_the_normalised_evidences():
 
 
 @pytest.mark.slow
-def test_a_roll_whose_first_impact_is_cut_off_is_numbered_from_impact_one(tmp_path, capsys):
+def test_a_roll_that_begins_late_is_fitted_with_its_likeliest_numbering(tmp_path):
+    """table2_h80 with its first one and two impacts cut off, each numbered from its first
+    onset: the estimate finds the impacts missed and fits every model again numbered from
+    there, so the reported geometry and α are the simulator's truth, as for the whole roll."""
     assert main(["onsets", str(DATA / "table2_h80.flac"), "-o", str(tmp_path / "all.csv")]) == 0
     rows = list(csv.DictReader((tmp_path / "all.csv").open()))
     config = DATA / "table2_h80.toml"
     assert "missed_first" not in config.read_text()  # on by default
+    truth = json.loads((DATA / "table2_h80.truth.json").read_text())["simulate"]
     found = {}
-    for name, first in (("late", 1), ("whole", 0)):
-        with (tmp_path / f"{name}.csv").open("w", newline="") as handle:
+    for first in (0, 1, 2):
+        with (tmp_path / f"from{first}.csv").open("w", newline="") as handle:
             writer = csv.writer(handle)
             # numbered from the first onset written, as a recording that begins there would be
             # (the bounces the extractor did not hear, 13 and 14, stay gaps)
-            writer.writerow(["time_s", "bounce"])
-            writer.writerows([row["time_s"], int(row["bounce"]) - first] for row in rows[first:])
-        out = tmp_path / name
-        assert main(["estimate", str(tmp_path / f"{name}.csv"), "--prior",
+            # (the extractor's sigma_s kept, as in a file `drumroll onsets` writes)
+            writer.writerow(["time_s", "sigma_s", "bounce"])
+            writer.writerows([row["time_s"], row["sigma_s"], int(row["bounce"]) - first]
+                             for row in rows[first:])
+        out = tmp_path / f"from{first}"
+        assert main(["estimate", str(tmp_path / f"from{first}.csv"), "--prior",
                      str(config), "-o", str(out), "-q"]) == 0
-        found[name] = json.loads((out / "summary.json").read_text())
-    printed = capsys.readouterr().out
-    late, whole = found["late"]["missed_first_impacts"], found["whole"]["missed_first_impacts"]
-    assert late[1] > 0.99 and whole[0] > 0.99
-    # Numbered from impact 2, the whole roll is far below the data.
-    assert whole[2] < 1e-6
-    assert any("P(2) " in note for note in found["whole"]["notes"])
-    assert "the first onset may not be the roll's first impact" in printed
-    assert "every number given assumes none was missed" in printed
-    assert any("P(none missed)" in w for w in found["late"]["diagnostics"]["pendulum"]["warnings"])
-    assert not any("P(none missed)" in w
-                   for w in found["whole"]["diagnostics"]["pendulum"]["warnings"])
+        found[first] = json.loads((out / "summary.json").read_text())
+    for first, summary in found.items():
+        probabilities = summary["missed_first_impacts"]
+        assert probabilities[first] > 0.99
+        assert summary["onsets"][0]["bounce"] == first
+        assert not any("may not be impact" in w
+                       for w in summary["diagnostics"]["pendulum"]["warnings"])
+        assert (f"fitted with the first onset as impact {first}" in summary["notes"][-1]) == (
+            first > 0)
+        for name, key in (("alpha", "alpha"), ("pivot_mm", "pivot_mm"),
+                          ("height_mm", "height_mm")):
+            estimate = summary["parameters"][key]
+            assert abs(estimate["mean"] - truth[name]) < 3 * estimate["sd"], (first, name)
+        # the comparison is the whole roll's too (misnumbered, the power law won by 23 nats)
+        assert summary["preferred"] != "powerlaw"
+    # Numbered from impact 2, the whole roll is far below the data: screened, not fitted.
+    assert found[0]["missed_first_impacts"][2] < 1e-6
+    assert any("P(2) < 3e-07 (screened)" in note for note in found[0]["notes"])
+    # Numbered from impact 0, the roll that lost two impacts is ruled out by its screen too.
+    assert any("P(0) < 3e-07 (screened)" in note for note in found[2]["notes"])
 
 
 def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):

@@ -11,11 +11,13 @@ also rendered as a recording, its onsets found by the extractor and fitted the s
 (:mod:`.recording`), so that the two calibrations differ by the extractor alone. The
 statistics over the simulations are :mod:`drumroll.inference.calibration`'s.
 
-Two settings of the fit differ from ``estimate``'s, neither of which changes the main model's
-posterior: the models of ``compare`` are not fitted and no evidence is computed (they serve
-the comparison only; so are the renumbered fits of ``[likelihood] missed_first``, which give
-evidences alone), and the fit runs in one process (the simulations run side by side
-instead). Each simulation has its own seeds, derived from ``seed`` and its number alone, so
+Two settings of the fit differ from ``estimate``'s: the models of ``compare`` are not fitted
+and no evidence is computed (they serve the comparison only), and the fit runs in one process
+(the simulations run side by side instead). Neither changes the main model's posterior, but
+for one case: without evidences the first onset's numbering is not weighed
+(``[likelihood] missed_first``), so a rendered roll whose first impact the extractor missed is
+fitted numbered from its first onset, where ``estimate`` would fit it again from the likelier
+impact. Each simulation has its own seeds, derived from ``seed`` and its number alone, so
 the result does not depend on the number of workers or on the order they finish in.
 """
 

@@ -23,7 +23,14 @@ numberings (the five bundled stick rolls other than table2_h80, each whole and w
 first one or two onsets cut off, numbered from impacts 0, 1 and 2), the sampled estimate was
 trusted on 37, within 0.04 nat of the fit in the median and 0.37 at worst where the
 numbering was within 15 nats of the roll's best (1.1 at worst, 24 nats below it). A warning
-is given where m = 0 is not clearly preferred.
+is given where the numbering fitted is not clearly preferred.
+
+Where m = 0 is not clearly preferred and another numbering is likelier
+(:func:`renumbering`), the estimate fits every model again numbered from the likeliest, so
+that no number it gives carries the misfit of a wrong numbering. The first onset's own
+numbering is screened too (:class:`Numberings`), so a roll that clearly began late is
+renumbered on the screens alone, before its misnumbered fits end (table2_h80 with two impacts
+cut off: 6 s instead of 57).
 """
 
 from __future__ import annotations
@@ -31,7 +38,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Collection, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -83,14 +90,18 @@ def missed_probabilities(log_evidences: Sequence[float]) -> tuple[float, ...]:
     return tuple(float(w) for w in weights / weights.sum())
 
 
-def missed_note(model: str, probabilities: Sequence[float], screened: Collection[int] = ()
-                ) -> str:
+def missed_note(model: str, probabilities: Sequence[float], screened: Collection[int] = (),
+                numbered_from: int = 0) -> str:
     """The posterior of m in words, for the report's notes; the numberings in ``screened``
-    were not fitted (:func:`needs_fit`), and their probability is the screen's bound."""
+    were not fitted (:func:`needs_fit`), and their probability is the screen's bound;
+    ``numbered_from``: the numbering every model was fitted with (:func:`renumbering`)."""
     shown = ", ".join(f"P({m}) < {math.exp(-SCREEN_NATS):.0e} (screened)" if m in screened
                       else f"P({m}) = {p:.3g}" for m, p in enumerate(probabilities))
+    unheard = "impact" if numbered_from == 1 else f"{numbered_from} impacts"
+    fitted = (f"; every model is fitted with the first onset as impact {numbered_from} (the "
+              f"first {unheard} not heard)" if numbered_from else "")
     return (f"{model}: impacts missed before the first onset (the geometry fixes t_B, so a "
-            f"recording that begins late would show): {shown}")
+            f"recording that begins late would show): {shown}{fitted}")
 
 
 def needs_fit(screened_log_z: float, main_log_z: float) -> bool:
@@ -100,15 +111,72 @@ def needs_fit(screened_log_z: float, main_log_z: float) -> bool:
     return not screened_log_z < main_log_z - SCREEN_NATS
 
 
-def missed_warning(model: str, probabilities: Sequence[float]) -> str | None:
-    """A warning where m = 0 is not clearly preferred (P(0) < :data:`CLEARLY`)."""
-    if not probabilities or not probabilities[0] < CLEARLY:
+def missed_warning(model: str, probabilities: Sequence[float], numbered_from: int = 0
+                   ) -> str | None:
+    """A warning where the numbering fitted (``numbered_from`` impacts missed) is not clearly
+    preferred (its probability below :data:`CLEARLY`)."""
+    if not probabilities or not probabilities[numbered_from] < CLEARLY:
         return None
     likeliest = int(np.argmax(probabilities))
-    return (f"{model}: the first onset may not be the roll's first impact: P(none missed) = "
-            f"{probabilities[0]:.2g}, P({likeliest} missed) = {probabilities[likeliest]:.2g}, "
-            "while every number given assumes none was missed; check the recording's start "
-            "(onsets.png), or number the onsets with a bounce column")
+    assumed = "none was" if numbered_from == 0 else f"{numbered_from} were"
+    return (f"{model}: the first onset may not be impact {numbered_from} of the roll: "
+            f"P({numbered_from} missed) = {probabilities[numbered_from]:.2g}, P({likeliest} "
+            f"missed) = {probabilities[likeliest]:.2g}, while every number given assumes "
+            f"{assumed} missed; check the recording's start (onsets.png), or number the "
+            "onsets with a bounce column")
+
+
+def renumbering(probabilities: Sequence[float], numbered_from: int = 0) -> int | None:
+    """The numbering to fit instead of ``numbered_from``: the likeliest, where the one fitted
+    is not clearly preferred (below :data:`CLEARLY`) and another is likelier; else None.
+
+    A recording that begins late numbers its onsets from the wrong impact, and every number
+    of a fit with that numbering (α, t_B, the pivot) is biased by the misfit: the estimate
+    fits the models again with the likeliest numbering instead of reporting them.
+    """
+    if not probabilities or not probabilities[numbered_from] < CLEARLY:
+        return None
+    likeliest = int(np.nanargmax(probabilities))
+    return None if likeliest == numbered_from else likeliest
+
+
+@dataclass
+class Numberings:
+    """What an estimate knows of the first onset's numberings (m impacts missed → …), across
+    its passes: each one's screen and the evidence sampled from it, its ln Z once settled, and
+    those given only as the screen's bound."""
+
+    screens: dict[int, Screen] = field(default_factory=dict)
+    screen_evidences: dict[int, Evidence | None] = field(default_factory=dict)
+    log_z: dict[int, float] = field(default_factory=dict)
+    screened_out: set[int] = field(default_factory=set)
+
+    def early_renumbering(self, numbered_from: int) -> int | None:
+        """From the screens alone (before any fit is back): the numbering to fit instead of
+        ``numbered_from``, or None. Each numbering's ln Z is estimated by importance sampling
+        from its screen where that passed its diagnostic, else by the screen's Laplace
+        estimate. The likeliest must be of the first kind; ``numbered_from`` must be either of
+        the first kind and not clearly preferred (:func:`renumbering`), or
+        :data:`SCREEN_NATS` below it (it would be screened
+        out: a misnumbered roll's screen is the least trustworthy, as its posterior is the
+        roughest). The estimates that passed their diagnostic are kept as the numberings'
+        ln Z."""
+        trusted = {m: e.log_z for m, e in self.screen_evidences.items()
+                   if e is not None and e.trusted}
+        estimates = {m: trusted.get(m, found.log_z) for m, found in self.screens.items()}
+        likeliest = max(estimates, key=estimates.get)
+        if (any(math.isnan(v) for v in estimates.values()) or likeliest == numbered_from
+                or likeliest not in trusted):
+            return None
+        if numbered_from in trusted:
+            order = sorted(estimates)
+            found = missed_probabilities([estimates[m] for m in order])
+            if renumbering(found, order.index(numbered_from)) is None:
+                return None
+        elif needs_fit(estimates[numbered_from], trusted[likeliest]):
+            return None
+        self.log_z.update(trusted)
+        return likeliest
 
 
 @dataclass(frozen=True)

@@ -225,6 +225,11 @@ class FigureDrawer:
                     raise fileio.no_space_error(self.out_dir, exc) from None
                 raise
             self.pool = self._stack.enter_context(process_pool(self.workers))
+        previous = self.futures.get(key)
+        if previous is not None and not previous.cancel():
+            # Drawn again (the estimate fitted again with another numbering): the earlier
+            # drawing ends before this one starts, so it cannot overwrite it.
+            previous.exception()
         self.futures[key] = self.pool.submit(_draw_figure, key, inputs,
                                              self.staging / FIGURES[key].file)
 

@@ -12,16 +12,20 @@ import pytest
 from scipy import integrate, stats
 
 from drumroll.config import load_config
+from drumroll.inference.evidence import Evidence
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.missed_impacts import (
     PROPOSAL_NU,
     SCREEN_NATS,
     Branch,
     LaplaceEstimate,
+    Numberings,
+    Screen,
     _mixture_draws,
     laplace,
     missed_note,
     needs_fit,
+    renumbering,
     screen,
     screened_evidence,
     shifted,
@@ -74,6 +78,53 @@ def test_a_numbering_is_fitted_unless_screened_far_below():
     assert "P(1) = 0.01" in note and "P(2) < 3e-07 (screened)" in note
 
 
+def test_another_numbering_is_fitted_only_where_the_first_is_not_clearly_preferred():
+    assert renumbering((0.96, 0.04, 0.0)) is None
+    assert renumbering((0.5, 0.2, 0.3)) is None  # not clearly preferred, but the likeliest
+    assert renumbering((0.3, 0.6, 0.1)) == 1
+    assert renumbering((0.01, 0.0, 0.99)) == 2
+    assert renumbering((0.0, 0.9, 0.1), numbered_from=1) is None
+    assert renumbering(()) is None
+
+
+def _numberings(laplace_log_z: dict[int, float], sampled: dict[int, tuple[float, float]]
+                ) -> Numberings:
+    """Screens with these Laplace estimates, and importance-sampled evidences (ln Z, Pareto
+    k: trusted where k ≤ 0.7) from some of them."""
+    found = Numberings()
+    for m, log_z in laplace_log_z.items():
+        found.screens[m] = Screen(log_z)
+        found.screen_evidences[m] = None
+    for m, (log_z, k) in sampled.items():
+        found.screen_evidences[m] = Evidence(log_z, 0.01, 8000, ess=4000.0,
+                                             method="importance", pareto_k=k)
+    return found
+
+
+def test_the_screens_renumber_a_roll_only_on_evidence_they_trust():
+    # table2_h80 with two impacts cut off (measured): numbered from impact 0 its screen is
+    # not trusted (k = 1.4) and 49 nats below the trusted screen of impact 2.
+    late = _numberings({0: 14.4, 1: 55.8, 2: 63.7}, {0: (24.5, 1.37), 1: (55.9, 0.31),
+                                                      2: (63.7, 0.14)})
+    assert late.early_renumbering(0) == 2
+    assert late.log_z == {1: 55.9, 2: 63.7}  # the trusted ones, kept for the next pass
+    # The whole roll: impact 0 is the likeliest.
+    whole = _numberings({0: 76.8, 1: 70.6, 2: 20.7}, {0: (77.0, 0.15), 1: (70.4, 0.0)})
+    assert whole.early_renumbering(0) is None and whole.log_z == {}
+    # Another numbering likelier, but by an estimate its own diagnostic does not trust.
+    assert _numberings({0: 50.0, 1: 70.0}, {0: (50.0, 0.2), 1: (70.0, 0.9)}
+                       ).early_renumbering(0) is None
+    # The first numbering's screen untrusted and within SCREEN_NATS of the likeliest: the
+    # fits decide.
+    assert _numberings({0: 60.0 - SCREEN_NATS + 1.0, 1: 60.0}, {1: (60.0, 0.2)}
+                       ).early_renumbering(0) is None
+    # Both trusted: the first is not clearly preferred (P(0) = 1/(1 + e)).
+    assert _numberings({0: 50.0, 1: 51.0}, {0: (50.0, 0.2), 1: (51.0, 0.2)}
+                       ).early_renumbering(0) == 1
+    # A screen with no estimate at all: nothing is decided.
+    assert _numberings({0: math.nan, 1: 60.0}, {1: (60.0, 0.2)}).early_renumbering(0) is None
+
+
 def test_the_proposal_density_is_scipys_mixture():
     """Two branches over three columns: a Student-t over all of them, and one over the first
     two with the third held absent (uniform on its plateau [−0.5, 0))."""
@@ -120,3 +171,4 @@ def test_the_screen_agrees_with_the_fitted_evidences():
                 trusted += 1
                 assert sampled.log_z == pytest.approx(fitted.log_z, abs=0.25)
     assert trusted >= 4
+
