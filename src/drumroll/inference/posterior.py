@@ -72,8 +72,13 @@ class LogPosterior:
             raise ConfigError("priors.restitution_scatter: a scattering restitution needs "
                               'Gaussian onset noise ([likelihood] noise = "gaussian")')
         if noise == "student-t":
+            # T0 is impact 0's time: about the first onset's when that is impact 0, else in
+            # the window before it (impacts missed before the first onset: the misses' flights
+            # are two at most, under a second for a stick). Every numbering's window is as
+            # wide, so that their evidences compare.
             first = float(data.times[0])
-            extra = {"t0": Uniform(low=first - 0.5 * T0_WINDOW_S, high=first + 0.5 * T0_WINDOW_S),
+            low = first - (0.5 if int(data.bounces[0]) == 0 else 1.0) * T0_WINDOW_S
+            extra = {"t0": Uniform(low=low, high=low + T0_WINDOW_S),
                      "nu": nu if nu is not None else Fixed(4.0)}
         elif noise != "gaussian":
             raise ValueError(f"unknown noise model {noise!r}")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from drumroll.config import load_config
+from drumroll.config import load_config, parse_config
 from drumroll.inference.evidence import Evidence
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.missed_impacts import (
@@ -33,7 +33,7 @@ from drumroll.inference.missed_impacts import (
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.settings import estimate_settings
 from drumroll.pipeline import _fit, choose_roll, load_onsets
-from paths import DATA
+from paths import CORPUS, DATA
 
 COVARIANCE = np.array([[2.0, 0.6, -0.3], [0.6, 1.0, 0.2], [-0.3, 0.2, 0.5]])
 
@@ -172,3 +172,29 @@ def test_the_screen_agrees_with_the_fitted_evidences():
                 assert sampled.log_z == pytest.approx(fitted.log_z, abs=0.25)
     assert trusted >= 4
 
+
+@pytest.mark.skipif(not (CORPUS / "r06_pearl2_hard_release_96k.truth.json").exists(),
+                    reason="the shared corpus is absent")
+def test_a_numbering_whose_missed_flights_last_over_half_a_second_can_win():
+    """Another simulator's roll (the shared corpus's r06: ODE impacts, released at 0.9 m/s)
+    begun two impacts late, whose two missed flights last 0.53 s: under Student-t noise T0 (the
+    time of impact 0) is sampled, and its prior window once ended 0.5 s before the first onset,
+    which left numbering 2 38 nats below numbering 1 (with the pivot 5 sd off)."""
+    import json
+
+    truth = json.loads((CORPUS / "r06_pearl2_hard_release_96k.truth.json").read_text())
+    times = np.asarray(truth["onset_times_s"])[2:]
+    assert truth["onset_times_s"][2] - truth["onset_times_s"][0] > 0.5
+    # table2_h80's stick and set-up (r06's: d = 131, h = 80 mm), Student-t noise
+    raw = load_config(DATA / "table2_h80.toml").raw
+    config = parse_config({**raw, "priors": {
+        **raw["priors"], "release_speed_m_s": truth["release_tip_speed_m_s"]}})
+    settings = estimate_settings(config)
+    data = OnsetData.from_arrays(times, np.full(times.size, 1e-4))
+    log_z = {}
+    for missed in (1, 2):
+        log_posterior = LogPosterior.build(config, config.model, shifted(data, missed),
+                                           settings.noise, settings.nu)
+        evidence = screened_evidence(log_posterior, screen(log_posterior, 1), 1)
+        log_z[missed] = -math.inf if evidence is None else evidence.log_z
+    assert log_z[2] > log_z[1] + 5.0
