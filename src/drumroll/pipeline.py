@@ -565,8 +565,9 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     """:func:`estimate`'s fits, comparison and summary of the roll ``fitted``, its first onset
     numbered as impact ``numbered_from``. In the first pass (``numbered_from`` 0), raises
     :class:`_Renumber` as soon as the numberings' evidences put another numbering ahead
-    (:func:`~drumroll.inference.missed_impacts.renumbering`); the numberings' ln Z stay in
-    ``numberings`` for the next pass, which fits none of them again."""
+    (:func:`~drumroll.inference.missed_impacts.renumbering`); the numberings' screens and
+    the ln Z they settled stay in ``numberings`` for the next pass, which screens none of them
+    again and fits only those the first pass left open."""
     say = reporter.say
     first_pass = numbered_from == 0
     onsets, data = fitted.onsets, shifted(fitted.data, numbered_from)
@@ -658,7 +659,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         if first_pass and renumbered:
             targets[numbered_from] = posteriors[config.model]
         for missed, log_posterior in targets.items():
-            if missed in screens:  # in the first pass
+            if missed in screens:  # screened in the first pass
                 continue
             screens[missed] = screen(log_posterior, seeds[config.model])
             screen_evidences[missed] = screened_evidence(log_posterior, screens[missed],
