@@ -149,9 +149,11 @@ def test_the_proposal_density_is_scipys_mixture():
 @pytest.mark.slow
 def test_the_screen_agrees_with_the_fitted_evidences():
     """table2_h80, whole and with its first onset cut off, each numbered from impacts 0, 1, 2,
-    against the importance-sampled evidence of a fit: the Laplace screen within 1.5 nats
-    (its margin is 15), and the evidence sampled from the screen, where its diagnostic trusts
-    it, within 0.25 nat (its own error a few hundredths)."""
+    against the importance-sampled evidence of a fit: the Laplace screen within 1.5 nats where
+    the numbering is within its margin (15 nats) of the roll's best, and beyond it where not
+    (there it may miss the mode: the whole roll numbered from impact 2 screens 28 nats under
+    its fit, both far under the best); the evidence sampled from the screen, where its
+    diagnostic trusts it, within 0.25 nat (its own error a few hundredths)."""
     config = load_config(DATA / "table2_h80.toml")
     settings = estimate_settings(config)
     quick = replace(settings, sampler=replace(settings.sampler, target_ess=300))
@@ -159,17 +161,23 @@ def test_the_screen_agrees_with_the_fitted_evidences():
     late = OnsetData(data.times[1:], data.sigmas[1:], np.asarray(data.bounces[1:]) - 1)
     trusted = 0
     for onsets in (data, late):
+        fitted, found = {}, {}
         for missed in range(3):
             log_posterior = LogPosterior.build(config, config.model, shifted(onsets, missed),
                                                settings.noise, settings.nu)
-            fitted = _fit(log_posterior, quick, 11)[1]
-            assert fitted.trusted
-            found = screen(log_posterior, 3)
-            assert found.log_z == pytest.approx(fitted.log_z, abs=1.5)
-            sampled = screened_evidence(log_posterior, found, 3)
+            fitted[missed] = _fit(log_posterior, quick, 11)[1]
+            assert fitted[missed].trusted
+            found[missed] = screen(log_posterior, 3)
+            sampled = screened_evidence(log_posterior, found[missed], 3)
             if sampled is not None and sampled.trusted:
                 trusted += 1
-                assert sampled.log_z == pytest.approx(fitted.log_z, abs=0.25)
+                assert sampled.log_z == pytest.approx(fitted[missed].log_z, abs=0.25)
+        best = max(f.log_z for f in fitted.values())
+        for missed, evidence in fitted.items():
+            if evidence.log_z > best - SCREEN_NATS:
+                assert found[missed].log_z == pytest.approx(evidence.log_z, abs=1.5)
+            else:
+                assert found[missed].log_z < best - SCREEN_NATS
     assert trusted >= 4
 
 
