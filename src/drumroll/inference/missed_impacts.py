@@ -122,8 +122,8 @@ def missed_warning(model: str, probabilities: Sequence[float], numbered_from: in
     return (f"{model}: the first onset may not be impact {numbered_from} of the roll: "
             f"P({numbered_from} missed) = {probabilities[numbered_from]:.2g}, P({likeliest} "
             f"missed) = {probabilities[likeliest]:.2g}, while every number given assumes "
-            f"{assumed} missed; check the recording's start (onsets.png), or number the "
-            "onsets with a bounce column")
+            f"{assumed} missed; check the recording's start (onsets.png), and each "
+            "numbering's probability in the notes")
 
 
 def renumbering(probabilities: Sequence[float], numbered_from: int = 0) -> int | None:
@@ -156,11 +156,10 @@ class Numberings:
         ``numbered_from``, or None. Each numbering's ln Z is estimated by importance sampling
         from its screen where that passed its diagnostic, else by the screen's Laplace
         estimate. The likeliest must be of the first kind; ``numbered_from`` must be either of
-        the first kind and not clearly preferred (:func:`renumbering`), or
-        :data:`SCREEN_NATS` below it (it would be screened
-        out: a misnumbered roll's screen is the least trustworthy, as its posterior is the
-        roughest). The estimates that passed their diagnostic are kept as the numberings'
-        ln Z."""
+        the first kind and not clearly preferred (:func:`renumbering`), or :data:`SCREEN_NATS`
+        below it (it would be screened out: a misnumbered roll's screen is the least
+        trustworthy, as its posterior is the roughest). The estimates that passed their
+        diagnostic are kept as the numberings' ln Z."""
         trusted = {m: e.log_z for m, e in self.screen_evidences.items()
                    if e is not None and e.trusted}
         estimates = {m: trusted.get(m, found.log_z) for m, found in self.screens.items()}
