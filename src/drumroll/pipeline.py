@@ -257,14 +257,18 @@ class FittedRoll:
     onsets
         The roll's onsets, bounce numbers counted from its first onset (k = 0).
     data
-        The same onsets as the likelihood takes them.
+        The same onsets as the likelihood takes them, counted from the first onset.
+    numbered_from
+        The first onset's bounce number in the source: the impacts its maker says were not
+        heard before it (0 for an extractor's onsets), the numbering every model is first
+        fitted with (``data`` shifted by it).
     roll
         The roll's number in the source (0, 1, 2, … in time order).
     sizes
         Onsets per roll of the source, by roll number.
     notes
-        What the user should read before the numbers: other rolls in the recording, bounces
-        renumbered from the first one heard, missing bounces.
+        What the user should read before the numbers: other rolls in the recording, the
+        first onset's number, missing bounces.
     """
 
     onsets: OnsetTable
@@ -272,16 +276,19 @@ class FittedRoll:
     roll: int
     sizes: dict[int, int]
     notes: list[str]
+    numbered_from: int = 0
 
 
 def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the onsets"
                 ) -> FittedRoll:
     """The roll to fit: roll ``roll``, or the longest (the earliest of those tied).
 
-    Bounce numbers become relative to the roll's first onset: k = 0 is the first impact heard,
-    where the model's time starts (a user's file may start at k > 0; an extractor's starts at
-    0). A missing number is an impact that was not heard, fitted as a gap: the model runs
-    through it, and the onsets after it keep their own k.
+    Bounce numbers are kept as the source gives them: an extractor numbers a roll's first
+    onset k = 0, a user's file may start at k > 0 (impacts its maker knows were not heard),
+    and every model is first fitted with that numbering (``numbered_from``; the stick models
+    then weigh it against the others, :mod:`~drumroll.inference.missed_impacts`). A missing
+    number is an impact that was not heard, fitted as a gap: the model runs through it, and
+    the onsets after it keep their own k.
 
     Raises
     ------
@@ -308,8 +315,10 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
                      f"{chosen}, {why}")
     first = int(table.bounce[0])
     if first:
-        notes.append(f"the roll's first onset is numbered bounce {first}: bounces are counted "
-                     "from the first impact heard, which is k = 0 here")
+        unheard = "the first impact" if first == 1 else f"the first {first} impacts"
+        notes.append(f"the roll's first onset is numbered bounce {first} in {name}, which "
+                     f"counts {unheard} of the roll as not heard: the fit starts from that "
+                     "numbering")
         table = replace(table, bounce=data.bounces)
     missing = data.missing
     if missing:
@@ -317,7 +326,8 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
         notes.append(f"bounce{'s' if len(missing) > 1 else ''} {listed} missing (inaudible or "
                      f"masked): fitted as gap{'s' if len(missing) > 1 else ''}")
     notes.extend(_faint_first_notes(table))
-    return FittedRoll(onsets=table, data=data, roll=int(chosen), sizes=sizes, notes=notes)
+    return FittedRoll(onsets=table, data=data, roll=int(chosen), sizes=sizes, notes=notes,
+                      numbered_from=first)
 
 
 #: How far (dB) a roll's first onset may lie under the median level of the three after it
@@ -537,16 +547,18 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     begun = time.perf_counter()
     try:
         return _fit_models(config, settings, fitted, recording, numberings, reporter=reporter,
-                           listener=listener, seconds=seconds, source=source_name)
+                           listener=listener, seconds=seconds, source=source_name,
+                           numbered_from=fitted.numbered_from)
     except _Renumber as renumber:
         # The first onset's numbering fitted the main model worse than another: every number
         # of these fits would carry that misfit, so the models are fitted again.
         seconds["first_numbering"] = time.perf_counter() - begun
         say(f"{config.model}: the first onset is likelier impact {renumber.numbered_from} than "
-            f"impact 0 ({renumber.why}): fitting every model again with that numbering")
+            f"impact {fitted.numbered_from} ({renumber.why}): fitting every model again with "
+            "that numbering")
         return _fit_models(config, settings, fitted, recording, numberings, reporter=reporter,
                            listener=listener, seconds=seconds, source=source_name,
-                           numbered_from=renumber.numbered_from)
+                           numbered_from=renumber.numbered_from, first_pass=False)
 
 
 class _Renumber(Exception):
@@ -561,15 +573,14 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                 recording: Path | AudioSource | None, numberings: Numberings, *,
                 reporter: Progress, listener: EstimateListener | None,
                 seconds: dict[str, float], source: str | None,
-                numbered_from: int = 0) -> Result:
+                numbered_from: int = 0, first_pass: bool = True) -> Result:
     """:func:`estimate`'s fits, comparison and summary of the roll ``fitted``, its first onset
-    numbered as impact ``numbered_from``. In the first pass (``numbered_from`` 0), raises
+    numbered as impact ``numbered_from``. In the first pass (the source's numbering), raises
     :class:`_Renumber` as soon as the numberings' evidences put another numbering ahead
     (:func:`~drumroll.inference.missed_impacts.renumbering`); the numberings' screens and
     the ln Z they settled stay in ``numberings`` for the next pass, which screens none of them
     again and fits only those the first pass left open."""
     say = reporter.say
-    first_pass = numbered_from == 0
     onsets, data = fitted.onsets, shifted(fitted.data, numbered_from)
     models = config.models
     workers = max(1, min(settings.workers, len(models)))
@@ -641,10 +652,12 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     # does not put it far below the main fit's.
     numbered = (forward_model(config.model).needs_stick and settings.evidence != "none"
                 and settings.missed_first > 0)
+    # The numberings weighed: 0 … missed_first impacts missed, and as many as the source says.
+    highest = max(settings.missed_first, fitted.numbered_from)
     renumbered = {} if not numbered else {
         missed: LogPosterior.build(config, config.model, shifted(fitted.data, missed),
                                    settings.noise, settings.nu)
-        for missed in range(settings.missed_first + 1)
+        for missed in range(highest + 1)
         if missed != numbered_from and missed not in numberings.log_z}
     evidence_settings = replace(settings, sampler=replace(
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
@@ -707,14 +720,14 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         return _fit, renumbered[missed], evidence_settings, seeds[config.model]
 
     def probabilities() -> tuple[float, ...]:
-        """P(m) for m = 0 … missed_first, once every numbering's ln Z is known (else ())."""
+        """P(m) for m = 0 … ``highest``, once every numbering's ln Z is known (else ())."""
         main = fits.get(config.model)
         if not numbered or main is None or main.evidence is None:
             return ()
         log_z = {**numberings.log_z, numbered_from: main.evidence.log_z}
-        if len(log_z) <= settings.missed_first:
+        if len(log_z) <= highest:
             return ()
-        return missed_probabilities([log_z[m] for m in range(settings.missed_first + 1)])
+        return missed_probabilities([log_z[m] for m in range(highest + 1)])
 
     def check_numbering() -> None:
         """In the first pass: stop for another numbering as soon as it is the likelier."""
@@ -817,7 +830,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                *_predicted_prior_notes(config, {m: f.log_posterior.space
                                                 for m, f in fits.items()}),
                *([missed_note(config.model, missed_first, numberings.screened_out,
-                              numbered_from)]
+                              numbered_from, fitted.numbered_from)]
                  if missed_first else [])),
         missed_first_impacts=missed_first,
         parameters=parameters,

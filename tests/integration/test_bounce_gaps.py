@@ -285,13 +285,16 @@ def test_figures_leave_out_the_flights_next_to_a_gap(fits):
     assert np.all(low < model_low) and np.all(model_high < high)
 
 
-def test_a_roll_numbered_from_a_later_bounce_is_counted_from_its_first(tmp_path):
+def test_a_roll_numbered_from_a_later_bounce_keeps_its_numbering(tmp_path):
     times = ball_times(8)
     fitted = choose_roll(table(times, bounce=np.arange(3, 11)))
     np.testing.assert_array_equal(fitted.onsets.bounce, np.arange(8))
     np.testing.assert_array_equal(fitted.data.bounces, np.arange(8))
-    assert fitted.notes == ["the roll's first onset is numbered bounce 3: bounces are counted "
-                            "from the first impact heard, which is k = 0 here"]
+    assert fitted.numbered_from == 3  # the models are fitted from impact 3
+    assert fitted.notes == ["the roll's first onset is numbered bounce 3 in the onsets, which "
+                            "counts the first 3 impacts of the roll as not heard: the fit "
+                            "starts from that numbering"]
+    assert choose_roll(table(times, bounce=np.arange(8))).numbered_from == 0
 
 
 # -- several rolls ----------------------------------------------------------------------------

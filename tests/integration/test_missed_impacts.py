@@ -77,3 +77,47 @@ def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["missed_first_impacts"] == []
     assert not any("impacts missed" in note for note in summary["notes"])
+
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("cut", "file_first", "missed_first", "fitted"), [
+    (2, 2, 0, 2),  # the file's numbering imposed
+    (2, 2, 2, 2),  # the file's numbering checked, and kept
+    (0, 1, 2, 0),  # the file's numbering checked, and replaced
+])
+def test_a_files_own_bounce_numbers_are_the_numbering_fitted_first(
+        tmp_path, cut, file_first, missed_first, fitted):
+    """table2_h80 less its first ``cut`` onsets, in a file whose bounce column numbers its
+    first onset ``file_first`` (as a user who knows, or thinks, that impacts went unheard
+    writes it): the models are fitted with the file's numbering first; the check (off with
+    ``missed_first = 0``) keeps it where it is right, with no second pass, and fits again from
+    the right impact where it is wrong; the geometry and α are the simulator's truth."""
+    assert main(["onsets", str(DATA / "table2_h80.flac"), "-o", str(tmp_path / "all.csv"),
+                 "-q"]) == 0
+    rows = list(csv.DictReader((tmp_path / "all.csv").open()))
+    with (tmp_path / "late.csv").open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time_s", "sigma_s", "bounce"])
+        writer.writerows([row["time_s"], row["sigma_s"], int(row["bounce"]) - cut + file_first]
+                         for row in rows[cut:])
+    config = (DATA / "table2_h80.toml").read_text().replace(
+        "[likelihood]\n", f"[likelihood]\nmissed_first = {missed_first}\n").replace(
+        'compare = ["small-angle", "powerlaw"]', "compare = []")
+    (tmp_path / "h80.toml").write_text(config)
+    out = tmp_path / "out"
+    assert main(["estimate", str(tmp_path / "late.csv"), "--prior", str(tmp_path / "h80.toml"),
+                 "-o", str(out), "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert [o["bounce"] for o in summary["onsets"][:2]] == [fitted, fitted + 1]
+    assert summary["notes"][0].startswith(
+        f"the roll's first onset is numbered bounce {file_first} in ")
+    assert ("first_numbering" in summary["seconds"]) == (fitted != file_first)
+    probabilities = summary["missed_first_impacts"]
+    assert (probabilities[fitted] > 0.99) if missed_first else probabilities == []
+    if missed_first:
+        assert f"fitted with the first onset as impact {fitted} (" in summary["notes"][-1]
+    truth = json.loads((DATA / "table2_h80.truth.json").read_text())["simulate"]
+    for name in ("alpha", "pivot_mm", "height_mm"):
+        estimate = summary["parameters"][name]
+        assert abs(estimate["mean"] - truth[name]) < 3 * estimate["sd"], name

@@ -11,8 +11,10 @@ parameter, marginalised by the models' evidences:
     P(m | onsets) = Z_m / Σ_j Z_j,   Z_m = p(onsets | first onset is impact m),
 
 each Z_m the evidence of the main model fitted to the onsets renumbered k → k + m
-(:func:`shifted`). Z_0 is the main fit's own evidence. Every other numbering (up to
-``[likelihood] missed_first``, 2 by default) is screened while the models are sampled: a
+(:func:`shifted`). The numbering fitted first is the source's: m = 0 for an extractor's
+onsets, the first onset's bounce number for an onset file that gives one; Z_m of that m is
+the main fit's own evidence. Every other numbering (up to ``[likelihood] missed_first``, 2 by
+default, or the source's if higher) is screened while the models are sampled: a
 Laplace estimate of its evidence at its mode (:func:`screen`, about 0.2 CPU-s), then
 importance sampling from a mixture built on it (:func:`screened_evidence`, 0.05 s), whose
 estimate is used where its own diagnostic trusts it. Where it does not, the numbering is
@@ -91,15 +93,18 @@ def missed_probabilities(log_evidences: Sequence[float]) -> tuple[float, ...]:
 
 
 def missed_note(model: str, probabilities: Sequence[float], screened: Collection[int] = (),
-                numbered_from: int = 0) -> str:
+                numbered_from: int = 0, source_numbering: int = 0) -> str:
     """The posterior of m in words, for the report's notes; the numberings in ``screened``
     were not fitted (:func:`needs_fit`), and their probability is the screen's bound;
-    ``numbered_from``: the numbering every model was fitted with (:func:`renumbering`)."""
+    ``numbered_from``: the numbering every model was fitted with (:func:`renumbering`), said
+    where it is not 0 or not the source's (``source_numbering``: an onset file's first bounce
+    number)."""
     shown = ", ".join(f"P({m}) < {math.exp(-SCREEN_NATS):.0e} (screened)" if m in screened
                       else f"P({m}) = {p:.3g}" for m, p in enumerate(probabilities))
-    unheard = "impact" if numbered_from == 1 else f"{numbered_from} impacts"
-    fitted = (f"; every model is fitted with the first onset as impact {numbered_from} (the "
-              f"first {unheard} not heard)" if numbered_from else "")
+    unheard = ("none missed" if numbered_from == 0 else "the first impact not heard"
+               if numbered_from == 1 else f"the first {numbered_from} impacts not heard")
+    fitted = (f"; every model is fitted with the first onset as impact {numbered_from} "
+              f"({unheard})" if numbered_from or source_numbering else "")
     return (f"{model}: impacts missed before the first onset (the geometry fixes t_B, so a "
             f"recording that begins late would show): {shown}{fitted}")
 
