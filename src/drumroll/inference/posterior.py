@@ -34,6 +34,31 @@ NOISE_MODELS = ("gaussian", "student-t")
 Impacts = tuple[NDArray, NDArray]
 
 
+def t0_window(data: OnsetData) -> tuple[float, float]:
+    """The flat prior's range of T0, impact 0's time, under Student-t noise (s).
+
+    Where the first onset is impact 0, :data:`T0_WINDOW_S` about it. Where it is impact k > 0
+    (k impacts missed before it), T0 lies before it by the k missed flights, each at least
+    as long as the flights heard after it (restitution ≤ 1: flights only shrink), so at
+    least k d before it, d the shorter of the first two flights heard (an onset's interval
+    over its bounce gap; the shorter, so that one late onset cannot push the bound past the
+    truth). The window ends k d / 2 before the first onset (a margin for timing noise and
+    contact times) and reaches back over missed flights of up to 2.5 d on average: as wide
+    as :data:`T0_WINDOW_S`, so that the numberings' evidences compare, unless the flights
+    are longer than that allows. Missed flights that grew back faster than that (one missed
+    at a restitution under about 0.63, two under 0.66, three under 0.74) fall outside it,
+    and the fit says so (T0 piles up at the window's edge).
+    """
+    first = float(data.times[0])
+    missed = int(data.bounces[0])
+    if missed == 0 or data.n_onsets < 2:
+        return first - 0.5 * T0_WINDOW_S, first + 0.5 * T0_WINDOW_S
+    flights = np.diff(data.times[:3]) / np.diff(data.bounces[:3])
+    least = missed * float(flights.min())
+    high = first - 0.5 * least
+    return high - max(T0_WINDOW_S, 2.0 * least), high
+
+
 @dataclass(frozen=True)
 class LogPosterior:
     """Unnormalised log posterior of one model given the onsets.
@@ -72,13 +97,8 @@ class LogPosterior:
             raise ConfigError("priors.restitution_scatter: a scattering restitution needs "
                               'Gaussian onset noise ([likelihood] noise = "gaussian")')
         if noise == "student-t":
-            # T0 is impact 0's time: about the first onset's when that is impact 0, else in
-            # the window before it (impacts missed before the first onset: the misses' flights
-            # are two at most, under a second for a stick). Every numbering's window is as
-            # wide, so that their evidences compare.
-            first = float(data.times[0])
-            low = first - (0.5 if int(data.bounces[0]) == 0 else 1.0) * T0_WINDOW_S
-            extra = {"t0": Uniform(low=low, high=low + T0_WINDOW_S),
+            low, high = t0_window(data)
+            extra = {"t0": Uniform(low=low, high=high),
                      "nu": nu if nu is not None else Fixed(4.0)}
         elif noise != "gaussian":
             raise ValueError(f"unknown noise model {noise!r}")

@@ -30,7 +30,7 @@ from drumroll.inference.missed_impacts import (
     screened_evidence,
     shifted,
 )
-from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.posterior import LogPosterior, t0_window
 from drumroll.inference.settings import estimate_settings
 from drumroll.pipeline import _fit, choose_roll, load_onsets
 from paths import CORPUS, DATA
@@ -206,3 +206,27 @@ def test_a_numbering_whose_missed_flights_last_over_half_a_second_can_win():
         evidence = screened_evidence(log_posterior, screen(log_posterior, 1), 1)
         log_z[missed] = -math.inf if evidence is None else evidence.log_z
     assert log_z[2] > log_z[1] + 5.0
+
+
+@pytest.mark.parametrize("first_flight", [0.05, 0.3, 1.5])
+@pytest.mark.parametrize("alpha", [0.75, 0.9, 0.999])
+@pytest.mark.parametrize("missed", [0, 1, 2, 3])
+def test_t0_window_holds_impact_0_of_a_roll_numbered_from_a_later_impact(
+        first_flight, alpha, missed):
+    """A ball's impact times (eq. 9's geometric flights, with 0.1 ms jitter and 1 ms contact
+    added to every interval), the first ``missed`` impacts not heard: impact 0 lies in the
+    window T0's prior spans, for flights from 50 ms to 1.5 s; numbered from impact 0 the
+    window is the first onset ± 0.5 s as before, and every numbering's window of a short roll
+    is as wide (their evidences compare). (Until this window, impact 0 of a roll numbered
+    from impact k > 0 was looked for in the second before the first onset: three missed
+    flights of 0.3 s or longer lay outside it.)"""
+    rng = np.random.default_rng(int(100 * first_flight) + missed)
+    intervals = first_flight * alpha ** np.arange(16) + 1e-3
+    times = 3.0 + np.concatenate(([0.0], np.cumsum(intervals))) + rng.normal(0, 1e-4, 17)
+    data = shifted(OnsetData.from_arrays(times[missed:], np.full(17 - missed, 1e-4)), missed)
+    low, high = t0_window(data)
+    assert low < times[0] < high
+    if missed == 0:
+        assert (low, high) == pytest.approx((times[0] - 0.5, times[0] + 0.5))
+    if first_flight * missed < 0.2:
+        assert high - low == pytest.approx(1.0)
