@@ -66,15 +66,21 @@ def test_a_roll_that_begins_late_is_fitted_with_its_likeliest_numbering(tmp_path
     assert any("P(0) < 3e-07 (screened)" in note for note in found[2]["notes"])
 
 
-def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):
+def estimate_pendulum_alone(source, tmp_path, missed_first: int) -> dict:
+    """summary.json of ``estimate source`` with table2_h80's config, the exact pendulum alone
+    and ``[likelihood] missed_first`` as given."""
     config = (DATA / "table2_h80.toml").read_text().replace(
-        "[likelihood]\n", "[likelihood]\nmissed_first = 0\n").replace(
+        "[likelihood]\n", f"[likelihood]\nmissed_first = {missed_first}\n").replace(
         'compare = ["small-angle", "powerlaw"]', "compare = []")
     (tmp_path / "h80.toml").write_text(config)
     out = tmp_path / "out"
-    assert main(["estimate", str(DATA / "table2_h80.flac"), "--prior", str(tmp_path / "h80.toml"),
+    assert main(["estimate", str(source), "--prior", str(tmp_path / "h80.toml"),
                  "-o", str(out), "-q"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):
+    summary = estimate_pendulum_alone(DATA / "table2_h80.flac", tmp_path, 0)
     assert summary["missed_first_impacts"] == []
     assert not any("impacts missed" in note for note in summary["notes"])
 
@@ -101,14 +107,7 @@ def test_a_files_own_bounce_numbers_are_the_numbering_fitted_first(
         writer.writerow(["time_s", "sigma_s", "bounce"])
         writer.writerows([row["time_s"], row["sigma_s"], int(row["bounce"]) - cut + file_first]
                          for row in rows[cut:])
-    config = (DATA / "table2_h80.toml").read_text().replace(
-        "[likelihood]\n", f"[likelihood]\nmissed_first = {missed_first}\n").replace(
-        'compare = ["small-angle", "powerlaw"]', "compare = []")
-    (tmp_path / "h80.toml").write_text(config)
-    out = tmp_path / "out"
-    assert main(["estimate", str(tmp_path / "late.csv"), "--prior", str(tmp_path / "h80.toml"),
-                 "-o", str(out), "-q"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
+    summary = estimate_pendulum_alone(tmp_path / "late.csv", tmp_path, missed_first)
     assert [o["bounce"] for o in summary["onsets"][:2]] == [fitted, fitted + 1]
     assert summary["notes"][0].startswith(
         f"the roll's first onset is numbered bounce {file_first} in ")
