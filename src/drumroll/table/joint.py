@@ -204,6 +204,7 @@ def fit_joint(runs: RunsFile, rows: list[RunRow]) -> dict[str, Any]:
     from drumroll.inference.convergence import diagnose
     from drumroll.inference.inference_data import parameter_draws
     from drumroll.inference.likelihood import OnsetData
+    from drumroll.inference.missed_impacts import shifted
     from drumroll.inference.posterior import LogPosterior
     from drumroll.inference.sampling import run_emcee, sampler_coordinates
     from drumroll.inference.settings import estimate_settings
@@ -213,9 +214,10 @@ def fit_joint(runs: RunsFile, rows: list[RunRow]) -> dict[str, Any]:
         config = validate_estimation(run)
         own = estimate_settings(config)
         settings = settings or own
-        onsets = row.summary.onsets  # the onsets the run's own fit used
-        data = OnsetData.from_arrays([o.time_s for o in onsets], [o.sigma_s for o in onsets],
-                                     [o.bounce for o in onsets])
+        onsets = row.summary.onsets  # the onsets the run's own fit used, as it numbered them
+        data = shifted(OnsetData.from_arrays([o.time_s for o in onsets],
+                                             [o.sigma_s for o in onsets],
+                                             [o.bounce for o in onsets]), onsets[0].bounce)
         parts.append(LogPosterior.build(config, config.model, data, own.noise, own.nu))
     shared = tuple(PARAMETERS[key].name for key in runs.share)
     # Each run's own coordinates, the geometry of its contact time's atom included: the joint
