@@ -45,6 +45,7 @@ from drumroll.inference.missed_impacts import (
     screen,
     screened_evidence,
     shifted,
+    unheard,
 )
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.results import (
@@ -315,10 +316,9 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
                      f"{chosen}, {why}")
     first = int(table.bounce[0])
     if first:
-        unheard = "the first impact" if first == 1 else f"the first {first} impacts"
         notes.append(f"the roll's first onset is numbered bounce {first} in {name}, which "
-                     f"counts {unheard} of the roll as not heard: the fit starts from that "
-                     "numbering")
+                     f"counts {unheard(first)} of the roll as not heard: the fit starts from "
+                     "that numbering")
         table = replace(table, bounce=data.bounces)
     missing = data.missing
     if missing:

@@ -85,7 +85,6 @@ def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):
     assert not any("impacts missed" in note for note in summary["notes"])
 
 
-
 @pytest.mark.slow
 @pytest.mark.parametrize(("cut", "file_first", "missed_first", "fitted"), [
     (2, 2, 0, 2),  # the file's numbering imposed

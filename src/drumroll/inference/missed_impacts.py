@@ -92,6 +92,12 @@ def missed_probabilities(log_evidences: Sequence[float]) -> tuple[float, ...]:
     return tuple(float(w) for w in weights / weights.sum())
 
 
+def unheard(missed: int) -> str:
+    """The impacts before the first onset, in words: "the first impact", "the first 3
+    impacts"."""
+    return "the first impact" if missed == 1 else f"the first {missed} impacts"
+
+
 def missed_note(model: str, probabilities: Sequence[float], screened: Collection[int] = (),
                 numbered_from: int = 0, source_numbering: int = 0) -> str:
     """The posterior of m in words, for the report's notes; the numberings in ``screened``
@@ -101,10 +107,9 @@ def missed_note(model: str, probabilities: Sequence[float], screened: Collection
     number)."""
     shown = ", ".join(f"P({m}) < {math.exp(-SCREEN_NATS):.0e} (screened)" if m in screened
                       else f"P({m}) = {p:.3g}" for m, p in enumerate(probabilities))
-    unheard = ("none missed" if numbered_from == 0 else "the first impact not heard"
-               if numbered_from == 1 else f"the first {numbered_from} impacts not heard")
+    missed = f"{unheard(numbered_from)} not heard" if numbered_from else "none missed"
     fitted = (f"; every model is fitted with the first onset as impact {numbered_from} "
-              f"({unheard})" if numbered_from or source_numbering else "")
+              f"({missed})" if numbered_from or source_numbering else "")
     return (f"{model}: impacts missed before the first onset (the geometry fixes t_B, so a "
             f"recording that begins late would show): {shown}{fitted}")
 
