@@ -122,6 +122,19 @@ def test_the_same_seed_gives_the_same_summary(ball, tmp_path):
     assert first == second
 
 
+def test_no_evidence_flag_overrides_a_config_that_asks_for_evidences(ball, tmp_path):
+    """``--no-evidence`` on a config whose ``[sampler]`` leaves evidences on (it crashed: the
+    flag wrote ``false`` into the parsed section, where "none" is what parsing leaves)."""
+    _, _, source, _ = ball
+    config = tmp_path / "with_evidence.toml"
+    config.write_text(BALL_CONFIG.replace("evidence = false\n", ""))
+    out = tmp_path / "out"
+    assert main(["estimate", str(source), "--prior", str(config), "--out", str(out),
+                 "--no-evidence", "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert not summary["evidence"] and "powerlaw_evidence" not in summary["seconds"]
+
+
 def test_figures_drawn_while_estimating_equal_those_drawn_after(ball, tmp_path):
     """With two processes the corner and trace plots are drawn as soon as the main model is
     back, while the estimate goes on (reporting.outputs.FigureDrawer); the outputs are those

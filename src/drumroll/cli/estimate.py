@@ -82,8 +82,10 @@ def _apply_overrides(config, args: argparse.Namespace):
         sampler["seed"] = args.seed
     if args.workers is not None:
         sampler["workers"] = args.workers
-    if args.no_evidence:
-        sampler["evidence"] = False
+    if args.no_evidence:  # the section is parsed already: its value as parsing leaves it
+        from drumroll.inference.settings import evidence_mode
+
+        sampler["evidence"] = evidence_mode(False, "--no-evidence")
     config.sections["sampler"] = sampler
     return config
 
