@@ -312,10 +312,10 @@ def test_sampler_coordinates_leave_the_posterior_unchanged(noise):
     under Student-t noise z includes T0's non-centred offset.
 
     Both are compared given that the roll has no contact time (its atom at 0, the plateau of
-    negative values in x, 97–98 % of the draws here): plain DE in x cannot move a walker
-    between "no contact" and "a contact", which shifts α and the geometry along a ridge that
-    only z straightens, so a walker started with a contact (2–3 % of the draws) stays there,
-    alone, for the whole run (held at acceptance 0.0003, it doubled α's sd)."""
+    negative values in x, 97–98 % of the draws here): plain DE in x hardly ever moves a walker
+    between "no contact" and "a contact", which shift α and the geometry along a ridge that
+    only z straightens, so a walker started with a contact (2–3 % of the draws) stayed there,
+    alone, for the whole run (acceptance 0.0003), and doubled α's sd."""
     import emcee
 
     lp = LogPosterior.build(_config("table1"), "pendulum", _data(False), noise=noise)
