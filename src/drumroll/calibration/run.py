@@ -130,6 +130,11 @@ def _fit_record(result: Any, truth: dict[str, float], rank_draws: int,
     spacing = min(draw_spacing(attrs["tau_steps"], attrs["thin"]),
                   max(1, chains * draws // rank_draws))
     at_chain, at_draw = independent_draws(chains, draws, spacing, rank_draws, rng)
+    if at_chain.size < rank_draws <= chains * draws:
+        # The offset drawn left a chain one candidate short: every fit must rank among the
+        # same number of draws, so close up to a spacing that holds enough for any offset.
+        spacing = max(1, draws // -(-rank_draws // chains))
+        at_chain, at_draw = independent_draws(chains, draws, spacing, rank_draws, rng)
     record: dict[str, dict[str, Any]] = {name: {} for name in (
         "rank", "mean", "sd", "covered_50", "covered_90")}
     parameters = result.summary.parameters

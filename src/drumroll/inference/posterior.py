@@ -10,7 +10,6 @@ from numpy.typing import NDArray
 
 from drumroll.config import Config
 from drumroll.distributions import Distribution, Fixed, Uniform
-from drumroll.errors import ConfigError
 from drumroll.inference.likelihood import (
     T0_WINDOW_S,
     OnsetData,
@@ -25,6 +24,10 @@ from drumroll.inference.scatter import (
     scatter_conditional_pointwise,
     scatter_marginal,
     scatter_noise,
+    scatter_spread,
+    student_t_laplace,
+    student_t_laplace_pointwise,
+    student_t_scatter_noise,
 )
 from drumroll.inference.space import SCATTER, ParameterSpace
 
@@ -74,7 +77,8 @@ class LogPosterior:
     data
         The onsets.
     noise
-        ``"gaussian"`` (T0 marginalised) or ``"student-t"`` (T0 sampled as ``t0``).
+        ``"gaussian"`` (T0 marginalised) or ``"student-t"`` (T0 sampled as ``t0``, or
+        marginalised with the walk of a scattering restitution).
     """
 
     space: ParameterSpace
@@ -84,22 +88,15 @@ class LogPosterior:
     @classmethod
     def build(cls, config: Config, model: str, data: OnsetData, noise: str = "gaussian",
               nu: Distribution | None = None) -> LogPosterior:
-        """The posterior of ``model``; Student-t noise adds ``t0`` and ``nu`` (default ν = 4).
-
-        Raises
-        ------
-        ConfigError
-            A restitution scatter with Student-t noise (the scatter is marginalised as a
-            Gaussian: :mod:`~drumroll.inference.scatter`).
-        """
+        """The posterior of ``model``; Student-t noise adds ``nu`` (default ν = 4) and, unless
+        the restitution scatters (T0 then integrated out with the scatter's walk:
+        :mod:`~drumroll.inference.scatter`), ``t0``."""
         extra: dict[str, Distribution] = {}
-        if noise != "gaussian" and _scatters(config.priors.get(SCATTER)):
-            raise ConfigError("priors.restitution_scatter: a scattering restitution needs "
-                              'Gaussian onset noise ([likelihood] noise = "gaussian")')
         if noise == "student-t":
-            low, high = t0_window(data)
-            extra = {"t0": Uniform(low=low, high=high),
-                     "nu": nu if nu is not None else Fixed(4.0)}
+            extra = {"nu": nu if nu is not None else Fixed(4.0)}
+            if not _scatters(config.priors.get(SCATTER)):
+                low, high = t0_window(data)
+                extra = {"t0": Uniform(low=low, high=high), **extra}
         elif noise != "gaussian":
             raise ValueError(f"unknown noise model {noise!r}")
         return cls(ParameterSpace.build(config, model, extra), data, noise)
@@ -131,15 +128,35 @@ class LogPosterior:
         return impacts, covariance, valid
 
     def _scatter_marginal(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        """:func:`~drumroll.inference.scatter.scatter_marginal` of the valid rows of ``x``
-        (log-likelihood −inf and T0 NaN elsewhere)."""
+        """Log-likelihood with the scatter's walk and T0 integrated out, and T0's conditional
+        mean and sd, of the valid rows of ``x`` (log-likelihood −inf and T0 NaN elsewhere)."""
         impacts, covariance, valid = self.onset_covariance(x)
         out = np.full((3, x.shape[0]), np.nan)
         out[0] = -np.inf
         if valid.any():
             with np.errstate(all="ignore"):
-                out[:, valid] = scatter_marginal(self.data, impacts[valid], covariance[valid])
+                out[:, valid] = self._scattered(self.space.values(x[valid]), impacts[valid],
+                                                covariance[valid])
         return out[0], out[1], out[2]
+
+    def _scattered(self, values: dict[str, NDArray], impacts: NDArray, covariance: NDArray
+                   ) -> tuple[NDArray, NDArray, NDArray]:
+        """:func:`~drumroll.inference.scatter.scatter_marginal` (Gaussian noise, exact) or
+        :func:`~drumroll.inference.scatter.student_t_laplace` (Student-t, Laplace's method)
+        of rows whose parameters are ``values``."""
+        if self.noise == "gaussian":
+            return scatter_marginal(self.data, impacts, covariance)
+        residual, scale2 = self._student_t_parts(values, impacts)
+        return student_t_laplace(residual, scatter_spread(covariance, scale2), scale2,
+                                 values["nu"])
+
+    def _student_t_parts(self, values: dict[str, NDArray], impacts: NDArray
+                         ) -> tuple[NDArray, NDArray]:
+        """The onsets less the noise-free impacts, and the t's squared scale per onset,
+        σ² + s_i², both ``(batch, n)``, for the rows of ``values``."""
+        jitter = np.broadcast_to(np.asarray(values["jitter"], float), impacts.shape[0])
+        residual = self.data.times - self.data.at_onsets(impacts)
+        return residual, jitter[:, None] ** 2 + self.data.sigmas**2
 
     def log_likelihood(self, x: NDArray, impacts: Impacts | None = None) -> NDArray:
         """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise); −inf where
@@ -199,7 +216,7 @@ class LogPosterior:
         impacts = self.space.impact_times(v, self.data.n_flights)
         if self._scatter:
             _, covariance, _ = self.onset_covariance(x)
-            return scatter_marginal(self.data, impacts, covariance)[0]
+            return self._scattered(v, impacts, covariance)[0]
         if self.noise == "gaussian":
             return gaussian_marginal(self.data, impacts, v["jitter"])[0]
         return student_t(self.data, impacts, v["jitter"], v["t0"], v["nu"])
@@ -232,13 +249,15 @@ class LogPosterior:
         return np.where(np.isfinite(out), out, -np.inf)
 
     def conditional_t0(self, x: NDArray, rng: np.random.Generator) -> NDArray:
-        """T0 per row: sampled from its exact conditional (Gaussian) or read from ``x``."""
-        v = self.space.values(x)
-        if self.noise != "gaussian":
-            return v["t0"]
+        """T0 per row: drawn from its conditional given the rest (exact under Gaussian noise,
+        Laplace's Gaussian under Student-t noise with a scattering restitution), or read
+        from ``x`` where it is sampled."""
         if self._scatter:
             _, mean, sd = self._scatter_marginal(np.atleast_2d(x))
             return mean + sd * rng.standard_normal(mean.shape)
+        v = self.space.values(x)
+        if self.noise != "gaussian":
+            return v["t0"]
         impacts = self.space.impact_times(v, self.data.n_flights)
         _, mean, sd = gaussian_marginal(self.data, impacts, v["jitter"])
         return mean + sd * rng.standard_normal(mean.shape)
@@ -262,7 +281,8 @@ def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts
                                 ) -> tuple[NDArray, NDArray]:
     """LOO's conditional terms log p(t_i | t_{−i}, θ) and one draw of the onsets' noise per
     row, under a scattering restitution (Σ per row, built in chunks so that thousands of draws
-    of a long roll never hold all their n × n matrices at once).
+    of a long roll never hold all their n × n matrices at once); under Student-t noise by
+    Laplace's method (:mod:`~drumroll.inference.scatter`).
 
     ``impacts`` are the rows' τ_0 … τ_K (from the full forward model)."""
     pointwise = np.empty((x.shape[0], log_posterior.data.n_onsets))
@@ -270,7 +290,14 @@ def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts
     for start in range(0, x.shape[0], chunk):
         rows = slice(start, start + chunk)
         _, covariance, _ = log_posterior.onset_covariance(x[rows])
-        pointwise[rows] = scatter_conditional_pointwise(log_posterior.data, impacts[rows],
-                                                        covariance)
-        noise[rows] = scatter_noise(covariance, rng)
+        if log_posterior.noise == "gaussian":
+            pointwise[rows] = scatter_conditional_pointwise(log_posterior.data, impacts[rows],
+                                                            covariance)
+            noise[rows] = scatter_noise(covariance, rng)
+            continue
+        values = log_posterior.space.values(x[rows])
+        residual, scale2 = log_posterior._student_t_parts(values, impacts[rows])
+        spread = scatter_spread(covariance, scale2)
+        pointwise[rows] = student_t_laplace_pointwise(residual, spread, scale2, values["nu"])
+        noise[rows] = student_t_scatter_noise(spread, scale2, values["nu"], rng)
     return pointwise, noise
