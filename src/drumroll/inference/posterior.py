@@ -159,8 +159,8 @@ class LogPosterior:
         return residual, jitter[:, None] ** 2 + self.data.sigmas**2
 
     def log_likelihood(self, x: NDArray, impacts: Impacts | None = None) -> NDArray:
-        """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise); −inf where
-        the physics forbids the point.
+        """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise and wherever the
+        restitution scatters); −inf where the physics forbids the point.
 
         This is the lean path (:meth:`ParameterSpace.impacts` and
         :func:`~drumroll.inference.likelihood.gaussian_marginal_lean`); the general one,
