@@ -127,14 +127,12 @@ def _fit_record(result: Any, truth: dict[str, float], rank_draws: int,
     attrs = fit.draws.sample_stats.attrs
     chains, draws = posterior.sizes["chain"], posterior.sizes["draw"]
     # One autocorrelation time apart; closer only if the stored draws hold too few such.
+    # Whatever its random offset, a chain holds draws // spacing candidates, so this cap
+    # leaves every fit rank_draws of them (ranks among different numbers of draws are on
+    # different scales; chains * draws // rank_draws could leave one short).
     spacing = min(draw_spacing(attrs["tau_steps"], attrs["thin"]),
-                  max(1, chains * draws // rank_draws))
+                  max(1, draws // -(-rank_draws // chains)))
     at_chain, at_draw = independent_draws(chains, draws, spacing, rank_draws, rng)
-    if at_chain.size < rank_draws <= chains * draws:
-        # The offset drawn left a chain one candidate short: every fit must rank among the
-        # same number of draws, so close up to a spacing that holds enough for any offset.
-        spacing = max(1, draws // -(-rank_draws // chains))
-        at_chain, at_draw = independent_draws(chains, draws, spacing, rank_draws, rng)
     record: dict[str, dict[str, Any]] = {name: {} for name in (
         "rank", "mean", "sd", "covered_50", "covered_90")}
     parameters = result.summary.parameters

@@ -57,6 +57,8 @@ passes through a missing onset unchanged).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -174,24 +176,32 @@ def scatter_marginal(data: OnsetData, impacts: NDArray, covariance: NDArray
     t0_sd = np.full(batch, np.nan)
     good = np.flatnonzero(np.isfinite(impacts).all(axis=1)
                           & np.isfinite(covariance).all(axis=(1, 2)))
-    try:
-        parts = [(good, _bordered(data, impacts[good], covariance[good]))] if good.size else []
-    except np.linalg.LinAlgError:  # a row whose Σ is not positive definite: one by one
-        parts = []
-        for row in good:
-            try:
-                # The rows as an index array (a scalar index would take a length-1 result
-                # as one element: a ValueError).
-                parts.append((np.array([row]), _bordered(data, impacts[row:row + 1],
-                                                         covariance[row:row + 1])))
-            except np.linalg.LinAlgError:
-                continue
+    parts = _by_rows(lambda rows: _bordered(data, impacts[rows], covariance[rows]), good)
     n = data.n_onsets
     for rows, (q_rr, q_r1, q_11, log_det, centre) in parts:
         log_like[rows] = t0_marginal(q_rr - q_r1**2 / q_11, log_det, q_11, n)
         t0_mean[rows] = centre + q_r1 / q_11
         t0_sd[rows] = 1.0 / np.sqrt(q_11)
     return np.where(np.isfinite(log_like), log_like, -np.inf), t0_mean, t0_sd
+
+
+def _by_rows(solve: Callable[[NDArray], Any], good: NDArray) -> list[tuple[NDArray, Any]]:
+    """``solve`` of the rows ``good`` (an index array) at once, as ``[(good, result)]``; where
+    a row's system is singular (:class:`numpy.linalg.LinAlgError`, rare), one row at a time,
+    the failing rows left out."""
+    if not good.size:
+        return []
+    try:
+        return [(good, solve(good))]
+    except np.linalg.LinAlgError:
+        parts = []
+        for row in good:
+            rows = np.array([row])  # an index array: a length-1 result stays an array
+            try:
+                parts.append((rows, solve(rows)))
+            except np.linalg.LinAlgError:
+                continue
+        return parts
 
 
 def scatter_conditional_pointwise(data: OnsetData, impacts: NDArray, covariance: NDArray
@@ -224,6 +234,10 @@ def scatter_noise(covariance: NDArray, rng: np.random.Generator) -> NDArray:
 #: of its scale), or the fall of −ln of the integrand (nats), under which the mode has been
 #: found.
 LAPLACE_ITERATIONS, LAPLACE_TOLERANCE = 10, 1e-7
+
+#: Floors, as shares of the t's reweighting weight (ν + 1) / (ν σ² + u²), of the curvature
+#: in a Newton step of :func:`student_t_laplace` and in its determinant (comments there).
+STEP_FLOOR, CURVATURE_FLOOR = 0.05, 0.02
 
 
 def scatter_spread(covariance: NDArray, scale2: NDArray) -> NDArray:
@@ -272,19 +286,8 @@ def student_t_laplace(residual: NDArray, spread: NDArray, scale2: NDArray,
         centre[good] = residual[good].mean(axis=1)
     centred = residual - centre[:, None]
 
-    def solve(rows: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        return _laplace(centred[rows], spread[rows], scale2[rows], nu[rows])
-
-    try:
-        parts = [(good, solve(good))] if good.size else []
-    except np.linalg.LinAlgError:  # rare: row by row, the failing ones left at −inf
-        parts = []
-        for row in good:
-            rows = np.array([row])
-            try:
-                parts.append((rows, solve(rows)))
-            except np.linalg.LinAlgError:
-                continue
+    parts = _by_rows(lambda rows: _laplace(centred[rows], spread[rows], scale2[rows],
+                                           nu[rows]), good)
     for rows, (log_like, t0, t0_sd) in parts:
         ok = np.isfinite(log_like)
         out[0, rows] = np.where(ok, log_like, -np.inf)
@@ -327,15 +330,15 @@ def _laplace(r: NDArray, spread: NDArray, c2: NDArray, nu: NDArray
         a_u, a_y, a_t0 = u[active], y[active], t0[active]
         a_nu, a_nu_c2, a_spread = nu[active], nu_c2[active], spread[active]
         q = a_nu_c2 + a_u * a_u
-        # The t's curvature (Newton's step) where it is at least a twentieth of the
-        # reweighting weight (ν + 1) / (ν σ² + u²), that twentieth beyond, about and past the
-        # inflection point (a damped reweighting step, which keeps the system definite and
-        # the step short where an onset lies in the t's tail; a larger floor converges
+        # The t's curvature (Newton's step) where it is at least STEP_FLOOR (a twentieth)
+        # of the reweighting weight (ν + 1) / (ν σ² + u²), that much beyond, about and past
+        # the inflection point (a damped reweighting step, which keeps the system definite
+        # and the step short where an onset lies in the t's tail; a larger floor converges
         # linearly for onsets a few σ out, as a roll's last onsets often are). The step
         # solves (I + D S) Δy + D 1 ΔT0 = ψ − y and 1ᵀ Δy = −1ᵀ y, divided through by D to be
         # symmetric.
         weight = np.maximum((a_nu + 1.0) * (a_nu_c2 - a_u * a_u) / (q * q),
-                            0.05 * (a_nu + 1.0) / q)
+                            STEP_FLOOR * (a_nu + 1.0) / q)
         step_y, step_t0 = _bordered_solve(a_spread, 1.0 / weight,
                                           ((a_nu + 1.0) * a_u / q - a_y) / weight,
                                           -a_y.sum(axis=1))
@@ -362,12 +365,14 @@ def _laplace(r: NDArray, spread: NDArray, c2: NDArray, nu: NDArray
         sy[rows] = moved_sy[taken]
         objective[rows] = moved_objective[taken]
         active = active[~settled]
-    # Curvature of −ln t at the mode, at least a fiftieth of the t's reweighting weight (a
-    # floor that binds only about and past the inflection point, |u| = √ν σ, where the
-    # curvature falls to 0 and below): with none, a point whose onsets all lie in the tails
-    # would leave T0 no curvature at all, and its Laplace estimate unbounded.
+    # Curvature of −ln t at the mode, at least CURVATURE_FLOOR (a fiftieth) of the t's
+    # reweighting weight (a floor that binds only about and past the inflection point,
+    # |u| = √ν σ, where the curvature falls to 0 and below): with none, a point whose onsets
+    # all lie in the tails would leave T0 no curvature at all, and its Laplace estimate
+    # unbounded.
     q = nu_c2 + u * u
-    curvature = np.maximum((nu + 1.0) * (nu_c2 - u * u) / (q * q), 0.02 * (nu + 1.0) / q)
+    curvature = np.maximum((nu + 1.0) * (nu_c2 - u * u) / (q * q),
+                           CURVATURE_FLOOR * (nu + 1.0) / q)
     root = np.sqrt(curvature)
     hessian = root[:, :, None] * spread * root[:, None, :]
     i = np.arange(n)
@@ -406,8 +411,9 @@ def _laplace(r: NDArray, spread: NDArray, c2: NDArray, nu: NDArray
         # t factor, integrated over a direction it pins alone, exceeds its Laplace estimate by
         # c_ν = −ln(t_ν(0) √(2π ν / (ν + 1))) (0.17 nat at ν = 4, 0.57 at ν = 1, 0 as ν → ∞),
         # and a direction it does not pin gains less; so the correction is held within n c_ν.
-        bound = -np.sum(student_t_logpdf(0.0, nu) + 0.5 * np.log(2.0 * math.pi * nu
-                                                                 / (nu + 1.0)), axis=1)
+        row_nu = nu[:, 0]  # one ν per row
+        bound = -n * (student_t_logpdf(0.0, row_nu)
+                      + 0.5 * np.log(2.0 * math.pi * row_nu / (row_nu + 1.0)))
         correction = np.clip(correction, -bound, bound)
         log_like = (log_t - 0.5 * z2 - 0.5 * log_det - 0.5 * np.log(precision)
                     + 0.5 * _LOG_2PI - math.log(T0_WINDOW_S) + correction)
