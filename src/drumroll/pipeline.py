@@ -36,6 +36,7 @@ from drumroll.inference.inference_data import build_draws, parameter_draws
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.missed_impacts import (
     EVIDENCE_ONLY_ESS,
+    STRAY,
     Numberings,
     missed_note,
     missed_probabilities,
@@ -45,6 +46,9 @@ from drumroll.inference.missed_impacts import (
     screen,
     screened_evidence,
     shifted,
+    stray_log_density,
+    stray_note,
+    stray_warning,
     unheard,
 )
 from drumroll.inference.posterior import LogPosterior
@@ -265,6 +269,11 @@ class FittedRoll:
         fitted with (``data`` shifted by it).
     roll
         The roll's number in the source (0, 1, 2, … in time order).
+    name
+        What the source is called in notes.
+    dropped_stray
+        Where the source's first onset was dropped as no impact of the roll
+        (:meth:`without_first`): the probability it was, else None.
     sizes
         Onsets per roll of the source, by roll number.
     notes
@@ -278,6 +287,22 @@ class FittedRoll:
     sizes: dict[int, int]
     notes: list[str]
     numbered_from: int = 0
+    name: str = "the onsets"
+    dropped_stray: float | None = None
+
+    def without_first(self, note: str, probability: float) -> FittedRoll:
+        """The roll from its second onset on, numbered from it (k = 0), its first onset
+        taken for a sound that is no impact (:data:`~.missed_impacts.STRAY`, with
+        ``probability``, told in ``note``)."""
+        table = self.onsets
+        rest = replace(table, time_s=table.time_s[1:], amplitude=table.amplitude[1:],
+                       snr_db=table.snr_db[1:], sigma_s=table.sigma_s[1:],
+                       bounce=table.bounce[1:] - table.bounce[1], roll=table.roll[1:])
+        faint = _faint_first_notes(table)  # on the onset now dropped
+        kept = [n for n in self.notes if n not in faint and not n.startswith((
+            "the roll's first onset is numbered", "bounce"))]
+        return replace(_fitted_roll(rest, self.roll, self.sizes, [*kept, note], self.name),
+                       dropped_stray=probability)
 
 
 def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the onsets"
@@ -305,8 +330,6 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
                             f"roll{'s' if len(sizes) > 1 else ''} {present} (--roll counts "
                             "from 0)")
     chosen = onsets.longest_roll if roll is None else roll
-    table = onsets.select_roll(chosen)
-    data = OnsetData.from_arrays(table.time_s, table.sigma_s, table.bounce)
     notes = []
     if len(sizes) > 1:
         counts = ", ".join(str(c) for c in sizes.values())
@@ -314,6 +337,15 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
                else "as asked")
         notes.append(f"the recording holds {len(sizes)} rolls (onsets {counts}); fitting roll "
                      f"{chosen}, {why}")
+    return _fitted_roll(onsets.select_roll(chosen), int(chosen), sizes, notes, name)
+
+
+def _fitted_roll(table: OnsetTable, chosen: int, sizes: dict[int, int], notes: list[str],
+                 name: str) -> FittedRoll:
+    """The roll ``table`` as it is fitted, with ``notes`` and those on its numbering, its
+    missing bounces and its first onset's level."""
+    data = OnsetData.from_arrays(table.time_s, table.sigma_s, table.bounce)
+    notes = list(notes)
     first = int(table.bounce[0])
     if first:
         notes.append(f"the roll's first onset is numbered bounce {first} in {name}, which "
@@ -326,8 +358,8 @@ def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the on
         notes.append(f"bounce{'s' if len(missing) > 1 else ''} {listed} missing (inaudible or "
                      f"masked): fitted as gap{'s' if len(missing) > 1 else ''}")
     notes.extend(_faint_first_notes(table))
-    return FittedRoll(onsets=table, data=data, roll=int(chosen), sizes=sizes, notes=notes,
-                      numbered_from=first)
+    return FittedRoll(onsets=table, data=data, roll=chosen, sizes=sizes, notes=notes,
+                      numbered_from=first, name=name)
 
 
 #: How far (dB) a roll's first onset may lie under the median level of the three after it
@@ -545,41 +577,56 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     source_name = None if isinstance(source, OnsetTable) else str(source)
     numberings = Numberings()
     begun = time.perf_counter()
-    try:
-        return _fit_models(config, settings, fitted, recording, numberings, reporter=reporter,
-                           listener=listener, seconds=seconds, source=source_name,
-                           numbered_from=fitted.numbered_from)
-    except _Renumber as renumber:
-        # The first onset's numbering fitted the main model worse than another: every number
-        # of these fits would carry that misfit, so the models are fitted again.
-        seconds["first_numbering"] = time.perf_counter() - begun
-        say(f"{config.model}: the first onset is likelier impact {renumber.numbered_from} than "
-            f"impact {fitted.numbered_from} ({renumber.why}): fitting every model again with "
-            "that numbering")
-        return _fit_models(config, settings, fitted, recording, numberings, reporter=reporter,
-                           listener=listener, seconds=seconds, source=source_name,
-                           numbered_from=renumber.numbered_from, first_pass=False)
+    numbered_from, first_pass, stray = fitted.numbered_from, True, True
+    while True:
+        try:
+            return _fit_models(config, settings, fitted, recording, numberings,
+                               reporter=reporter, listener=listener, seconds=seconds,
+                               source=source_name, numbered_from=numbered_from,
+                               first_pass=first_pass, stray=stray)
+        except _Renumber as renumber:
+            # The first onset's numbering fitted the main model worse than another: every
+            # number of these fits would carry that misfit, so the models are fitted again.
+            seconds["first_numbering"] = time.perf_counter() - begun
+            if renumber.numbered_from == STRAY:
+                # A new roll, the onsets after the first: its own numberings are weighed
+                # afresh (its first impact may have gone unheard too); once only.
+                say(f"{config.model}: the first onset is likelier a sound that is no impact "
+                    f"of the roll ({renumber.why}): fitting every model again from the onset "
+                    "after it")
+                fitted = fitted.without_first(stray_note(
+                    float(fitted.onsets.time_s[0]), renumber.probability, config.model),
+                    renumber.probability)
+                numberings, numbered_from, stray = Numberings(), fitted.numbered_from, False
+                continue
+            say(f"{config.model}: the first onset is likelier impact {renumber.numbered_from} "
+                f"than impact {numbered_from} ({renumber.why}): fitting every model again "
+                "with that numbering")
+            numbered_from, first_pass = renumber.numbered_from, False
 
 
 class _Renumber(Exception):
     """Raised out of the first pass of :func:`_fit_models`: fit with another numbering."""
 
-    def __init__(self, numbered_from: int, why: str) -> None:
+    def __init__(self, numbered_from: int, why: str, probability: float) -> None:
         super().__init__(numbered_from)
-        self.numbered_from, self.why = numbered_from, why
+        self.numbered_from, self.why, self.probability = numbered_from, why, probability
 
 
 def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                 recording: Path | AudioSource | None, numberings: Numberings, *,
                 reporter: Progress, listener: EstimateListener | None,
                 seconds: dict[str, float], source: str | None,
-                numbered_from: int = 0, first_pass: bool = True) -> Result:
+                numbered_from: int = 0, first_pass: bool = True, stray: bool = False
+                ) -> Result:
     """:func:`estimate`'s fits, comparison and summary of the roll ``fitted``, its first onset
     numbered as impact ``numbered_from``. In the first pass (the source's numbering), raises
     :class:`_Renumber` as soon as the numberings' evidences put another numbering ahead
     (:func:`~drumroll.inference.missed_impacts.renumbering`); the numberings' screens and
     the ln Z they settled stay in ``numberings`` for the next pass, which screens none of them
-    again and fits only those the first pass left open."""
+    again and fits only those the first pass left open. With ``stray`` (in the first pass),
+    the first onset's being no impact (:data:`~.missed_impacts.STRAY`) is weighed with the
+    numberings, for every main model: it is told by the timing alone."""
     say = reporter.say
     onsets, data = fitted.onsets, shifted(fitted.data, numbered_from)
     models = config.models
@@ -652,13 +699,23 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     # does not put it far below the main fit's.
     numbered = (forward_model(config.model).needs_stick and settings.evidence != "none"
                 and settings.missed_first > 0)
-    # The numberings weighed: 0 … missed_first impacts missed, and as many as the source says.
+    # The numberings weighed: 0 … missed_first impacts missed, and as many as the source says;
+    # and, where the onsets after the first still make a roll, the first onset a stray sound.
     highest = max(settings.missed_first, fitted.numbered_from)
-    renumbered = {} if not numbered else {
+    # (A later pass keeps the first pass's ln Z of it, so that its probability is given.)
+    stray_weighed = (stray and settings.evidence != "none" and len(fitted.data.times) > MIN_ONSETS
+                     and (first_pass or STRAY in numberings.log_z))
+    weighed = [*(range(highest + 1) if numbered else ()), *((STRAY,) if stray_weighed else ())]
+    if weighed:
+        weighed = sorted({*weighed, numbered_from})
+    renumbered = {
         missed: LogPosterior.build(config, config.model, shifted(fitted.data, missed),
                                    settings.noise, settings.nu)
-        for missed in range(highest + 1)
+        for missed in weighed
         if missed != numbered_from and missed not in numberings.log_z}
+    # ln Z of "the first onset is a stray sound" is that of the onsets after it times the stray
+    # onset's own density (missed_impacts.stray_log_density).
+    own_density = {STRAY: stray_log_density(fitted.data)} if stray_weighed else {}
     evidence_settings = replace(settings, sampler=replace(
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
     screens, screen_evidences = numberings.screens, numberings.screen_evidences
@@ -674,9 +731,12 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         for missed, log_posterior in targets.items():
             if missed in screens:  # screened in the first pass
                 continue
-            screens[missed] = screen(log_posterior, seeds[config.model])
-            screen_evidences[missed] = screened_evidence(log_posterior, screens[missed],
-                                                         seeds[config.model])
+            found = screen(log_posterior, seeds[config.model])
+            evidence = screened_evidence(log_posterior, found, seeds[config.model])
+            extra = own_density.get(missed, 0.0)
+            screens[missed] = replace(found, log_z=found.log_z + extra)
+            screen_evidences[missed] = (None if evidence is None
+                                        else replace(evidence, log_z=evidence.log_z + extra))
         if renumbered:  # while the models are sampled: part of "sampling", shown apart
             seconds["missed_first_screen"] = (seconds.get("missed_first_screen", 0.0)
                                               + time.perf_counter() - begun)
@@ -689,7 +749,9 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
             return
         likeliest = numberings.early_renumbering(numbered_from)
         if likeliest is not None:
-            raise _Renumber(likeliest, "by their screens")
+            settled = sorted(numberings.log_z)
+            found = missed_probabilities([numberings.log_z[m] for m in settled])
+            raise _Renumber(likeliest, "by their screens", found[settled.index(likeliest)])
 
     def numberings_to_fit(bar) -> list[int]:
         """Once the main fit is back: the numberings that need a fit. Not those whose
@@ -714,29 +776,31 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
 
     def keep_evidence(missed: int, output: tuple) -> None:
         evidence = output[1]
-        numberings.log_z[missed] = -math.inf if evidence is None else evidence.log_z
+        numberings.log_z[missed] = (-math.inf if evidence is None
+                                    else evidence.log_z + own_density.get(missed, 0.0))
 
     def renumbered_fit(missed: int) -> tuple:
         return _fit, renumbered[missed], evidence_settings, seeds[config.model]
 
-    def probabilities() -> tuple[float, ...]:
-        """P(m) for m = 0 … ``highest``, once every numbering's ln Z is known (else ())."""
+    def probabilities() -> dict[int, float]:
+        """P(m) for every numbering weighed, once each one's ln Z is known (else {})."""
         main = fits.get(config.model)
-        if not numbered or main is None or main.evidence is None:
-            return ()
+        if not weighed or main is None or main.evidence is None:
+            return {}
         log_z = {**numberings.log_z, numbered_from: main.evidence.log_z}
-        if len(log_z) <= highest:
-            return ()
-        return missed_probabilities([log_z[m] for m in range(highest + 1)])
+        if any(m not in log_z for m in weighed):
+            return {}
+        return dict(zip(weighed, missed_probabilities([log_z[m] for m in weighed]),
+                        strict=True))
 
     def check_numbering() -> None:
         """In the first pass: stop for another numbering as soon as it is the likelier."""
-        found = probabilities() if first_pass else ()
+        found = probabilities() if first_pass else {}
         likeliest = renumbering(found, numbered_from) if found else None
         if likeliest is not None:
             numberings.log_z[numbered_from] = fits[config.model].evidence.log_z
             raise _Renumber(likeliest, f"P = {found[likeliest]:.3g} against "
-                                       f"{found[numbered_from]:.2g}")
+                                       f"{found[numbered_from]:.2g}", found[likeliest])
 
     # One bar for every fit: the models, and the numberings screened or fitted.
     with reporter.bar(len(models) + len(renumbered), "sampling", "fit") as bar:
@@ -802,7 +866,10 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     seconds["comparison"] = time.perf_counter() - started + post_seconds
     main = fits[config.model]
     parameters = main.stats
-    missed_first = probabilities()
+    found = probabilities()
+    missed_first = (tuple(found[m] for m in range(highest + 1)) if found and numbered else ())
+    stray_first = found.get(STRAY, fitted.dropped_stray)
+    stray_warned = stray_warning(config.model, stray_first, fitted.dropped_stray is not None)
     model_diagnostics = {}
     evidence_entries = {}
     for m, fit in fits.items():
@@ -818,6 +885,9 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         if missed_warned:
             model_diagnostics[m] = replace(
                 model_diagnostics[m], warnings=(missed_warned, *model_diagnostics[m].warnings))
+        if stray_warned and m == config.model:
+            model_diagnostics[m] = replace(
+                model_diagnostics[m], warnings=(stray_warned, *model_diagnostics[m].warnings))
         misfit = checked[m].misfit(m)
         if misfit:
             model_diagnostics[m] = replace(
@@ -832,7 +902,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                *([missed_note(config.model, missed_first, numberings.screened_out,
                               numbered_from, fitted.numbered_from)]
                  if missed_first else [])),
-        missed_first_impacts=missed_first,
+        missed_first_impacts=missed_first, stray_first=stray_first,
         parameters=parameters,
         models=models_summary, observed_flights=observed[config.model],
         fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)

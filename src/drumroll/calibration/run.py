@@ -12,12 +12,13 @@ also rendered as a recording, its onsets found by the extractor and fitted the s
 statistics over the simulations are :mod:`drumroll.inference.calibration`'s.
 
 Two settings of the fit differ from ``estimate``'s: the models of ``compare`` are not fitted
-and no evidence is computed (they serve the comparison only), and the fit runs in one process
-(the simulations run side by side instead). Neither changes the main model's posterior, but
-for one case: without evidences the first onset's numbering is not weighed
-(``[likelihood] missed_first``), so a rendered roll whose first impact the extractor missed is
-fitted numbered from its first onset, where ``estimate`` would fit it again from the likelier
-impact. Each simulation has its own seeds, derived from ``seed`` and its number alone, so
+(they serve the comparison only), and the fit runs in one process (the simulations run side
+by side instead). The simulated onsets are fitted without evidences: their numbering is
+right by construction. A recording's onsets are fitted with the main model's evidences, as
+``estimate`` fits them: the first onset's numbering is weighed (a first impact the
+extractor missed, a tap before the roll it took for one), and a roll that is likelier
+numbered otherwise is fitted again so.
+Each simulation has its own seeds, derived from ``seed`` and its number alone, so
 the result does not depend on the number of workers or on the order they finish in.
 """
 
@@ -75,13 +76,20 @@ EXTRACTOR_TOO_SLOW = (f"the extractor took more than {EXTRACTOR_SECONDS:g} s on 
                       "recording")
 
 
-def fit_config(config: Config, seed: int) -> Config:
+def fit_config(config: Config, seed: int, numbering: bool = False) -> Config:
     """The config a simulation is fitted with: the same model, priors, noise and sampler
-    settings, without the compared models and the evidence (they serve the comparison, not
-    the main posterior), in one process, with the simulation's own sampler ``seed``."""
+    settings, without the compared models, in one process, with the simulation's own sampler
+    ``seed``; without the evidence (it serves the comparison, not the main posterior) unless
+    ``numbering``: a recording's onsets are fitted as ``estimate`` fits them, the first
+    onset's numbering weighed by the main model's evidences (a missed first impact, a tap
+    taken for one: :mod:`~drumroll.inference.missed_impacts`), since which numbering the
+    numbers come from is part of the answer."""
     raw = dict(config.raw)
     raw["compare"] = []
-    raw["sampler"] = {**raw.get("sampler", {}), "evidence": False, "workers": 1, "seed": seed}
+    sampler = {**raw.get("sampler", {}), "workers": 1, "seed": seed}
+    if not numbering:
+        sampler["evidence"] = False
+    raw["sampler"] = sampler
     return parse_config(raw, path=config.path)
 
 
@@ -182,6 +190,7 @@ def run_draw(raw: dict[str, Any], path: str | None, index: int, options: dict[st
     simulator = RollSimulator(config, config.model, options["n_onsets"])
     recorder = Recorder(config) if options["audio"] else None
     fitting = fit_config(config, fit_seed)
+    hearing = fit_config(config, fit_seed, numbering=True)
     attempts, rejected = 0, Counter()
     while True:
         roll = simulator.draw(roll_rng)
@@ -209,7 +218,7 @@ def run_draw(raw: dict[str, Any], path: str | None, index: int, options: dict[st
             result = estimate(_onset_table(roll.times), fitting)
             onset_seconds = time.perf_counter() - begun
             begun = time.perf_counter()
-            heard_result = None if heard is None else estimate(heard.onsets, fitting)
+            heard_result = None if heard is None else estimate(heard.onsets, hearing)
             audio_seconds = time.perf_counter() - begun
         except DrumrollError as exc:
             rejected[_refused(exc)] += 1

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -52,8 +52,14 @@ from drumroll.inference.evidence import IMPORTANCE_DRAWS, Evidence, weighted_evi
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.sampling import SamplerTarget, climb, find_start
+from drumroll.onsets.tracking import TrackParams
 from drumroll.stats import student_t_log_norm
 
+#: The numbering "the first onset is no impact of the roll, the second is impact 0": a tap or
+#: another sound before the roll that the extractor took for its first bounce. Weighed with
+#: the others (0, 1, 2 impacts missed), its evidence that of the onsets after it times the
+#: stray onset's density (:func:`stray_log_density`).
+STRAY = -1
 #: The largest number of impacts that can be considered missed (each costs one fit).
 MAX_MISSED = 2
 #: The ESS a numbering m ≥ 1 is sampled to: importance sampling needs draws that cover its
@@ -77,8 +83,55 @@ ADAPTATIONS, MIN_SHARE = 2, 0.01
 
 
 def shifted(data: OnsetData, missed: int) -> OnsetData:
-    """The onsets with the first one numbered as impact ``missed`` (k → k + missed)."""
+    """The onsets with the first one numbered as impact ``missed`` (k → k + missed); for
+    :data:`STRAY`, the onsets after the first, numbered from the second (impact 0)."""
+    if missed == STRAY:
+        bounces = np.asarray(data.bounces)[1:]
+        return OnsetData(data.times[1:], data.sigmas[1:], bounces - bounces[0])
     return OnsetData(data.times, data.sigmas, np.asarray(data.bounces) + missed)
+
+
+def stray_log_density(data: OnsetData) -> float:
+    """ln p(first onset's time | it is a stray sound), given the onsets after it (s⁻¹).
+
+    A sound that is no impact of the roll (a tap or a finger on the head while the stick is
+    set up) stands in the onset table as its first onset only where the extractor would take
+    it for one: a first flight T₀ that the second flight T₁ can follow, T₁ no more than
+    e^(3 jitter) times T₀ and no less than the smallest ratio times it, and T₀ no longer than
+    the longest flight (:class:`~drumroll.onsets.tracking.TrackParams`; for T₁ = 0.25 s a
+    window of 0.78 s). Sounds before a roll have nothing to do with its timing, so such a
+    sound is equally likely anywhere in that window: the density is one over its length.
+    T₁ is the flight after the second onset, per bounce where a bounce between was not
+    heard.
+    """
+    track = TrackParams()
+    bounces = np.asarray(data.bounces)
+    after = (data.times[2] - data.times[1]) / float(bounces[2] - bounces[1])
+    longest = min(after / track.min_ratio, track.max_interval_s)
+    window = longest - after * math.exp(-3.0 * track.ratio_jitter)
+    return -math.log(window) if window > 0.0 else -math.inf
+
+
+def stray_warning(model: str, probability: float | None, dropped: bool) -> str | None:
+    """A warning where the first onset's being a stray sound (:data:`STRAY`) is not clearly
+    decided, either way: dropped with P below :data:`CLEARLY`, or kept with P above
+    1 − :data:`CLEARLY`."""
+    if probability is None or not (1.0 - CLEARLY < probability < CLEARLY):
+        return None
+    if dropped:
+        return (f"{model}: the first onset, dropped as a sound that is no impact of the roll, "
+                f"may be its first impact (P = {1.0 - probability:.2g}); check the recording's "
+                "start (onsets.png)")
+    return (f"{model}: the first onset may be a sound that is no impact of the roll (a tap "
+            f"before it): P = {probability:.2g}, while every number given counts it as a "
+            "bounce; check the recording's start (onsets.png)")
+
+
+def stray_note(time_s: float, probability: float, model: str) -> str:
+    """The note of a first onset dropped as a stray sound (:data:`STRAY`)."""
+    return (f"the first onset ({time_s:.4f} s) is taken for a sound that is no impact of the "
+            f"roll (a tap before it, say): P = {probability:.3g} by {model}'s evidences, "
+            "against its being the first bounce; the fit starts from the onset after it")
 
 
 def missed_probabilities(log_evidences: Sequence[float]) -> tuple[float, ...]:
@@ -136,7 +189,8 @@ def missed_warning(model: str, probabilities: Sequence[float], numbered_from: in
             "numbering's probability in the notes")
 
 
-def renumbering(probabilities: Sequence[float], numbered_from: int = 0) -> int | None:
+def renumbering(probabilities: Sequence[float] | Mapping[int, float], numbered_from: int = 0
+                ) -> int | None:
     """The numbering to fit instead of ``numbered_from``: the likeliest, where the one fitted
     is not clearly preferred (below :data:`CLEARLY`) and another is likelier; else None.
 
@@ -144,9 +198,11 @@ def renumbering(probabilities: Sequence[float], numbered_from: int = 0) -> int |
     of a fit with that numbering (α, t_B, the pivot) is biased by the misfit: the estimate
     fits the models again with the likeliest numbering instead of reporting them.
     """
-    if not probabilities or not probabilities[numbered_from] < CLEARLY:
+    found = (dict(probabilities) if isinstance(probabilities, Mapping)
+             else dict(enumerate(probabilities)))
+    if not found or not found[numbered_from] < CLEARLY:
         return None
-    likeliest = int(np.nanargmax(probabilities))
+    likeliest = max(found, key=lambda m: -math.inf if math.isnan(found[m]) else found[m])
     return None if likeliest == numbered_from else likeliest
 
 

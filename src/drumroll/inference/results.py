@@ -323,6 +323,11 @@ class Summary(Record):
     missed_first_impacts
         P(m impacts came before the first onset | onsets), m = 0, 1, 2, under a stick model
         (:mod:`~drumroll.inference.missed_impacts`); empty otherwise.
+    stray_first
+        P(the source's first onset is no impact of the roll | onsets): a tap or another sound
+        before the roll taken for its first bounce (:data:`~.missed_impacts.STRAY`); where it
+        was the likelier, the fit starts from the onset after it and a note says so. None
+        where it was not weighed (no evidence, too few onsets).
     parameters
         The main model's posterior summaries, by quantity key (those of ``models[model]``).
     models
@@ -357,6 +362,7 @@ class Summary(Record):
     missing_bounces: tuple[int, ...] = ()
     notes: tuple[str, ...] = ()
     missed_first_impacts: tuple[float, ...] = ()
+    stray_first: float | None = None
     parameters: dict[str, ParameterSummary] = field(default_factory=dict)
     models: dict[str, ModelSummary] = field(default_factory=dict)
     observed_flights: ObservedFlights = field(default_factory=ObservedFlights)

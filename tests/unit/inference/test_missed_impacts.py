@@ -17,6 +17,7 @@ from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.missed_impacts import (
     PROPOSAL_NU,
     SCREEN_NATS,
+    STRAY,
     Branch,
     LaplaceEstimate,
     Numberings,
@@ -29,6 +30,8 @@ from drumroll.inference.missed_impacts import (
     screen,
     screened_evidence,
     shifted,
+    stray_log_density,
+    stray_warning,
 )
 from drumroll.inference.posterior import LogPosterior, t0_window
 from drumroll.inference.settings import estimate_settings
@@ -85,6 +88,39 @@ def test_another_numbering_is_fitted_only_where_the_first_is_not_clearly_preferr
     assert renumbering((0.01, 0.0, 0.99)) == 2
     assert renumbering((0.0, 0.9, 0.1), numbered_from=1) is None
     assert renumbering(()) is None
+    # the stray sound (STRAY, -1) among the numberings, by name
+    assert renumbering({STRAY: 0.97, 0: 0.03, 1: 0.0}) == STRAY
+    assert renumbering({STRAY: 0.02, 0: 0.98}) is None
+    assert renumbering({STRAY: 0.4, 0: 0.2, 1: 0.4, 2: math.nan}) in (STRAY, 1)
+
+
+def test_the_stray_numbering_is_the_onsets_after_the_first_numbered_from_the_second():
+    data = OnsetData.from_arrays([0.0, 0.3, 0.55, 0.77, 0.97], [1e-4] * 5, [0, 1, 2, 4, 5])
+    rest = shifted(data, STRAY)
+    assert rest.times.tolist() == [0.3, 0.55, 0.77, 0.97]
+    assert rest.sigmas.tolist() == [1e-4] * 4
+    assert rest.bounces.tolist() == [0, 1, 3, 4]
+    assert shifted(data, 1).bounces.tolist() == [1, 2, 3, 5, 6]
+
+
+def test_a_stray_sound_is_uniform_over_the_first_flights_the_tracker_joins():
+    """The second flight T₁ = 0.25 s: the tracker takes a first flight T₀ with
+    T₁ ≥ 0.25 T₀ and T₁ ≤ e^0.15 T₀, so T₀ lies in [0.2152, 1.0] s: 0.7848 s long."""
+    data = OnsetData.from_arrays([0.0, 0.26, 0.51, 0.74], [1e-4] * 4)
+    assert stray_log_density(data) == pytest.approx(-math.log(1.0 - 0.25 * math.exp(-0.15)))
+    # a bounce unheard after the second onset: T₁ per bounce; a long flight: capped at 2 s
+    gap = OnsetData.from_arrays([0.0, 0.9, 2.1, 2.6], [1e-4] * 4, [0, 1, 3, 4])
+    assert stray_log_density(gap) == pytest.approx(-math.log(2.0 - 0.6 * math.exp(-0.15)))
+
+
+def test_an_undecided_stray_sound_is_warned_of_either_way():
+    assert stray_warning("pendulum", 0.001, dropped=False) is None
+    assert stray_warning("pendulum", 0.999, dropped=True) is None
+    assert stray_warning("pendulum", None, dropped=False) is None
+    kept = stray_warning("pendulum", 0.3, dropped=False)
+    assert "may be a sound that is no impact" in kept and "P = 0.3" in kept
+    dropped = stray_warning("pendulum", 0.8, dropped=True)
+    assert "may be its first impact (P = 0.2)" in dropped
 
 
 def _numberings(laplace_log_z: dict[int, float], sampled: dict[int, tuple[float, float]]
