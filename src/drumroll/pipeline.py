@@ -703,7 +703,9 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     # and, where the onsets after the first still make a roll, the first onset a stray sound.
     highest = max(settings.missed_first, fitted.numbered_from)
     # (A later pass keeps the first pass's ln Z of it, so that its probability is given.)
-    stray_weighed = (stray and settings.evidence != "none" and len(fitted.data.times) > MIN_ONSETS
+    # ``missed_first = 0`` imposes the source's numbering, the first onset's being a bounce too.
+    stray_weighed = (stray and settings.evidence != "none" and settings.missed_first > 0
+                     and len(fitted.data.times) > MIN_ONSETS
                      and (first_pass or STRAY in numberings.log_z))
     weighed = [*(range(highest + 1) if numbered else ()), *((STRAY,) if stray_weighed else ())]
     if weighed:
@@ -714,8 +716,10 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         for missed in weighed
         if missed != numbered_from and missed not in numberings.log_z}
     # ln Z of "the first onset is a stray sound" is that of the onsets after it times the stray
-    # onset's own density (missed_impacts.stray_log_density).
-    own_density = {STRAY: stray_log_density(fitted.data)} if stray_weighed else {}
+    # onset's own density, its level's likelihood ratio included
+    # (missed_impacts.stray_log_density).
+    own_density = ({STRAY: stray_log_density(fitted.data, fitted.onsets.amplitude)}
+                   if stray_weighed else {})
     evidence_settings = replace(settings, sampler=replace(
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
     screens, screen_evidences = numberings.screens, numberings.screen_evidences

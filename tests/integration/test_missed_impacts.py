@@ -80,13 +80,20 @@ def estimate_pendulum_alone(source, tmp_path, missed_first: int) -> dict:
 
 
 def test_missed_first_zero_fits_the_first_numbering_alone(tmp_path):
-    """With ``missed_first = 0`` no impact is weighed as missed; whether the first onset is
-    an impact at all still is (the stray sound), and found negligible: it is table2_h80's
-    first impact."""
+    """With ``missed_first = 0`` the numbering is imposed: no impact is weighed as missed, nor
+    the first onset as a stray sound."""
     summary = estimate_pendulum_alone(DATA / "table2_h80.flac", tmp_path, 0)
     assert summary["missed_first_impacts"] == []
+    assert summary["stray_first"] is None
     assert not any("impacts missed" in note for note in summary["notes"])
+
+
+def test_the_first_impact_is_not_taken_for_a_stray_sound(tmp_path):
+    """table2_h80 as the extractor finds it, the exact pendulum alone: its first onset is
+    weighed as a stray sound and found negligible."""
+    summary = estimate_pendulum_alone(DATA / "table2_h80.flac", tmp_path, 2)
     assert summary["stray_first"] < 1e-3
+    assert summary["missed_first_impacts"][0] > 0.99
     assert not any("no impact of the roll" in note for note in summary["notes"])
 
 

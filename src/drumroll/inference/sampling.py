@@ -147,7 +147,8 @@ class SamplerTarget:
         the map."""
         x, log_det, impacts = self.coordinates.to_parameters_and_impacts(z)
         log_p = self.log_posterior(x) if impacts is None else self.log_posterior(x, impacts)
-        density = log_p + log_det
+        with np.errstate(invalid="ignore"):  # −inf + inf: far outside, as invalid as it gets
+            density = log_p + log_det
         if not np.isfinite(density).all():
             density[~np.isfinite(density)] = -np.inf
         return density, x, log_p

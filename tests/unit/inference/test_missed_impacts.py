@@ -84,14 +84,16 @@ def test_a_numbering_is_fitted_unless_screened_far_below():
 def test_another_numbering_is_fitted_only_where_the_first_is_not_clearly_preferred():
     assert renumbering((0.96, 0.04, 0.0)) is None
     assert renumbering((0.5, 0.2, 0.3)) is None  # not clearly preferred, but the likeliest
-    assert renumbering((0.3, 0.6, 0.1)) == 1
+    assert renumbering((0.3, 0.6, 0.1)) is None  # likelier, not clearly preferred: kept
+    assert renumbering((0.03, 0.96, 0.01)) == 1
     assert renumbering((0.01, 0.0, 0.99)) == 2
     assert renumbering((0.0, 0.9, 0.1), numbered_from=1) is None
     assert renumbering(()) is None
     # the stray sound (STRAY, -1) among the numberings, by name
     assert renumbering({STRAY: 0.97, 0: 0.03, 1: 0.0}) == STRAY
     assert renumbering({STRAY: 0.02, 0: 0.98}) is None
-    assert renumbering({STRAY: 0.4, 0: 0.2, 1: 0.4, 2: math.nan}) in (STRAY, 1)
+    assert renumbering({STRAY: 0.4, 0: 0.2, 1: 0.4, 2: math.nan}) is None
+    assert renumbering({STRAY: 0.01, 0: 0.0, 1: 0.99, 2: math.nan}) == 1
 
 
 def test_the_stray_numbering_is_the_onsets_after_the_first_numbered_from_the_second():
@@ -111,6 +113,24 @@ def test_a_stray_sound_is_uniform_over_the_first_flights_the_tracker_joins():
     # a bounce unheard after the second onset: T₁ per bounce; a long flight: capped at 2 s
     gap = OnsetData.from_arrays([0.0, 0.9, 2.1, 2.6], [1e-4] * 4, [0, 1, 3, 4])
     assert stray_log_density(gap) == pytest.approx(-math.log(2.0 - 0.6 * math.exp(-0.15)))
+
+
+def test_a_stray_sounds_level_is_weighed_with_the_trackers_level_model():
+    """Δ, the first onset's level against the median of the next three: Student t (3 degrees
+    of freedom, 6 dB) for the first impact, uniform over 60 dB for a stray sound (scipy's t
+    as the reference)."""
+    data = OnsetData.from_arrays([0.0, 0.26, 0.51, 0.74, 0.96], [1e-4] * 5)
+    timing = stray_log_density(data)
+    for delta_db in (-27.0, 0.0, 6.0):
+        amplitude = np.array([10 ** (delta_db / 20), 1.2, 1.0, 0.8, 0.7])
+        expected = -math.log(60.0) - (stats.t.logpdf(delta_db / 6.0, 3) - math.log(6.0))
+        assert stray_log_density(data, amplitude) == pytest.approx(timing + expected)
+    # 27 dB under: 16 times likelier a stray sound; as loud: 3.7 times likelier the impact
+    assert math.exp(stray_log_density(data, np.array([10 ** (-27 / 20), 1, 1, 1, 1])) - timing
+                    ) == pytest.approx(16.3, abs=0.1)
+    # unknown levels (an onset file without amplitudes, levels of 0): the timing alone
+    assert stray_log_density(data, np.full(5, np.nan)) == timing
+    assert stray_log_density(data, np.zeros(5)) == timing
 
 
 def test_an_undecided_stray_sound_is_warned_of_either_way():
@@ -154,8 +174,11 @@ def test_the_screens_renumber_a_roll_only_on_evidence_they_trust():
     # fits decide.
     assert _numberings({0: 60.0 - SCREEN_NATS + 1.0, 1: 60.0}, {1: (60.0, 0.2)}
                        ).early_renumbering(0) is None
-    # Both trusted: the first is not clearly preferred (P(0) = 1/(1 + e)).
+    # Both trusted: the other likelier (P(1) = e/(1 + e) = 0.73) but not clearly preferred:
+    # the first numbering is kept; 4 nats ahead (P(1) = 0.98), it is not.
     assert _numberings({0: 50.0, 1: 51.0}, {0: (50.0, 0.2), 1: (51.0, 0.2)}
+                       ).early_renumbering(0) is None
+    assert _numberings({0: 50.0, 1: 54.0}, {0: (50.0, 0.2), 1: (54.0, 0.2)}
                        ).early_renumbering(0) == 1
     # A screen with no estimate at all: nothing is decided.
     assert _numberings({0: math.nan, 1: 60.0}, {1: (60.0, 0.2)}).early_renumbering(0) is None
