@@ -702,11 +702,12 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     # The numberings weighed: 0 … missed_first impacts missed, and as many as the source says;
     # and, where the onsets after the first still make a roll, the first onset a stray sound.
     highest = max(settings.missed_first, fitted.numbered_from)
-    # (A later pass keeps the first pass's ln Z of it, so that its probability is given.)
-    # ``missed_first = 0`` imposes the source's numbering, the first onset's being a bounce too.
+    # (A later pass weighs it again from the first pass's screen, so that its probability is
+    # given.) ``missed_first = 0`` imposes the source's numbering, the first onset's being a
+    # bounce too.
     stray_weighed = (stray and settings.evidence != "none" and settings.missed_first > 0
                      and len(fitted.data.times) > MIN_ONSETS
-                     and (first_pass or STRAY in numberings.log_z))
+                     and (first_pass or STRAY in numberings.screens))
     weighed = [*(range(highest + 1) if numbered else ()), *((STRAY,) if stray_weighed else ())]
     if weighed:
         weighed = sorted({*weighed, numbered_from})

@@ -49,6 +49,8 @@ def test_a_roll_that_begins_late_is_fitted_with_its_likeliest_numbering(tmp_path
         probabilities = summary["missed_first_impacts"]
         assert probabilities[first] > 0.99
         assert summary["onsets"][0]["bounce"] == first
+        # the first onset weighed as a stray sound too (again after a renumbering): no
+        assert summary["stray_first"] < 1e-3
         assert not any("may not be impact" in w
                        for w in summary["diagnostics"]["pendulum"]["warnings"])
         assert (f"fitted with the first onset as impact {first}" in summary["notes"][-1]) == (
