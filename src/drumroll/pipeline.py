@@ -605,6 +605,13 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             numbered_from, first_pass = renumber.numbered_from, False
 
 
+def _given_an_impact(probabilities: tuple[float, ...]) -> tuple[float, ...]:
+    """P(m impacts missed) renormalised over m = 0, 1, …: given that the first onset is an
+    impact of the roll (the rest of the probability is its being a stray sound)."""
+    total = sum(probabilities)
+    return tuple(p / total for p in probabilities) if total > 0.0 else probabilities
+
+
 class _Renumber(Exception):
     """Raised out of the first pass of :func:`_fit_models`: fit with another numbering."""
 
@@ -626,7 +633,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     the ln Z they settled stay in ``numberings`` for the next pass, which screens none of them
     again and fits only those the first pass left open. With ``stray`` (in the first pass),
     the first onset's being no impact (:data:`~.missed_impacts.STRAY`) is weighed with the
-    numberings, for every main model: it is told by the timing alone."""
+    numberings, for every main model: its timing and level tell, not the geometry."""
     say = reporter.say
     onsets, data = fitted.onsets, shifted(fitted.data, numbered_from)
     models = config.models
@@ -799,7 +806,8 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                         strict=True))
 
     def check_numbering() -> None:
-        """In the first pass: stop for another numbering as soon as it is the likelier."""
+        """In the first pass: stop for another numbering as soon as it is clearly
+        preferred."""
         found = probabilities() if first_pass else {}
         likeliest = renumbering(found, numbered_from) if found else None
         if likeliest is not None:
@@ -885,8 +893,9 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                 model_diagnostics[m] = replace(
                     model_diagnostics[m],
                     warnings=(*model_diagnostics[m].warnings, f"{m}: {warning}"))
-        missed_warned = (missed_warning(m, missed_first, numbered_from) if m == config.model
-                         else None)
+        # (Given that the first onset is an impact: its being none has its own warning.)
+        missed_warned = (missed_warning(m, _given_an_impact(missed_first), numbered_from)
+                         if m == config.model else None)
         if missed_warned:
             model_diagnostics[m] = replace(
                 model_diagnostics[m], warnings=(missed_warned, *model_diagnostics[m].warnings))
