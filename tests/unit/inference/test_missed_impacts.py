@@ -240,6 +240,34 @@ def test_the_screen_agrees_with_the_fitted_evidences():
     assert trusted >= 4
 
 
+def test_a_branch_the_proposal_cannot_draw_from_voids_the_sampled_evidence():
+    """table2_h80's screen (contact present and absent): with the present branch's Gaussian
+    gone (−H not positive definite, as at a mode against a prior's edge) the proposal would
+    hold the absent branch alone, and no weight could show the mass it misses: no estimate.
+    Where the undrawn branch holds under 1 % of the screen's mass, the others' estimate
+    stands."""
+    config = load_config(DATA / "table2_h80.toml")
+    settings = estimate_settings(config)
+    data = choose_roll(load_onsets(DATA / "table2_h80.flac")).data
+    log_posterior = LogPosterior.build(config, config.model, data, settings.noise, settings.nu)
+    found = screen(log_posterior, 3)
+    assert len(found.branches) == 2 and all(b.estimate.covariance is not None
+                                            for b in found.branches)
+    assert screened_evidence(log_posterior, found, 3) is not None
+    present, absent = found.branches
+
+    def without_gaussian(branch: Branch, log_z: float) -> Branch:
+        return replace(branch, estimate=replace(branch.estimate, covariance=None), log_z=log_z)
+
+    heavy = (without_gaussian(present, present.log_z), absent)
+    assert screened_evidence(log_posterior, Screen(found.log_z, heavy), 3) is None
+    light_log_z = absent.log_z + math.log(0.001)
+    light = (without_gaussian(present, light_log_z), absent)
+    total = float(np.logaddexp(light_log_z, absent.log_z))
+    sampled = screened_evidence(log_posterior, Screen(total, light), 3)
+    assert sampled is not None and np.isfinite(sampled.log_z)
+
+
 @pytest.mark.skipif(not (CORPUS / "r06_pearl2_hard_release_96k.truth.json").exists(),
                     reason="the shared corpus is absent")
 def test_a_numbering_whose_missed_flights_last_over_half_a_second_can_win():
