@@ -30,16 +30,15 @@ is given where the numbering fitted is not clearly preferred.
 Where another numbering is clearly preferred (:func:`renumbering`), the estimate fits every
 model again numbered from it, so that no number it gives carries the misfit of a wrong
 numbering; where none is, the source's numbering is kept and a warning gives each one's
-probability.
+probability. The first onset's own numbering is screened too (:class:`Numberings`), so a
+roll that clearly began late is renumbered on the screens alone, before its misnumbered fits
+end (table2_h80 with two impacts cut off: 6 s instead of 57).
 
 One more numbering is weighed under every model, the power law's included: :data:`STRAY`,
 "the first onset is no impact of the roll" (a tap before it that the extractor took for the
 first bounce), whose evidence is that of the onsets after it times the first onset's
 density as a stray sound, in time and level (:func:`stray_log_density`). Where it is clearly
-preferred, the estimate fits every model again to the onsets after the first. The first onset's own
-numbering is screened too (:class:`Numberings`), so a roll that clearly began late is
-renumbered on the screens alone, before its misnumbered fits end (table2_h80 with two impacts
-cut off: 6 s instead of 57).
+preferred, the estimate fits every model again to the onsets after the first.
 """
 
 from __future__ import annotations
