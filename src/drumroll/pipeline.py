@@ -274,6 +274,9 @@ class FittedRoll:
     dropped_stray
         Where the source's first onset was dropped as no impact of the roll
         (:meth:`without_first`): the probability it was, else None.
+    given_notes
+        The notes ``notes`` began with (the choice of roll; a dropped first onset), before
+        those on the roll's own onsets.
     sizes
         Onsets per roll of the source, by roll number.
     notes
@@ -289,6 +292,7 @@ class FittedRoll:
     numbered_from: int = 0
     name: str = "the onsets"
     dropped_stray: float | None = None
+    given_notes: tuple[str, ...] = ()
 
     def without_first(self, note: str, probability: float) -> FittedRoll:
         """The roll from its second onset on, numbered from it (k = 0), its first onset
@@ -298,11 +302,9 @@ class FittedRoll:
         rest = replace(table, time_s=table.time_s[1:], amplitude=table.amplitude[1:],
                        snr_db=table.snr_db[1:], sigma_s=table.sigma_s[1:],
                        bounce=table.bounce[1:] - table.bounce[1], roll=table.roll[1:])
-        faint = _faint_first_notes(table)  # on the onset now dropped
-        kept = [n for n in self.notes if n not in faint and not n.startswith((
-            "the roll's first onset is numbered", "bounce"))]
-        return replace(_fitted_roll(rest, self.roll, self.sizes, [*kept, note], self.name),
-                       dropped_stray=probability)
+        # The notes on its numbering, gaps and first onset's level are the new roll's own.
+        return replace(_fitted_roll(rest, self.roll, self.sizes, [*self.given_notes, note],
+                                    self.name), dropped_stray=probability)
 
 
 def choose_roll(onsets: OnsetTable, roll: int | None = None, name: str = "the onsets"
@@ -345,6 +347,7 @@ def _fitted_roll(table: OnsetTable, chosen: int, sizes: dict[int, int], notes: l
     """The roll ``table`` as it is fitted, with ``notes`` and those on its numbering, its
     missing bounces and its first onset's level."""
     data = OnsetData.from_arrays(table.time_s, table.sigma_s, table.bounce)
+    given = tuple(notes)
     notes = list(notes)
     first = int(table.bounce[0])
     if first:
@@ -359,7 +362,7 @@ def _fitted_roll(table: OnsetTable, chosen: int, sizes: dict[int, int], notes: l
                      f"masked): fitted as gap{'s' if len(missing) > 1 else ''}")
     notes.extend(_faint_first_notes(table))
     return FittedRoll(onsets=table, data=data, roll=chosen, sizes=sizes, notes=notes,
-                      numbered_from=first, name=name)
+                      numbered_from=first, name=name, given_notes=given)
 
 
 #: How far (dB) a roll's first onset may lie under the median level of the three after it
