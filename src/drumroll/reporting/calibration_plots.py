@@ -72,11 +72,12 @@ def draw_ranks(result: Any):
     for ax in axes[::columns]:
         ax.set_ylabel("simulations")
     settings = result.settings
-    what = (f"{settings.n} simulations, ranks among {settings.rank_draws} posterior draws; "
-            "grey: where a bin falls with 99 % probability if calibrated")
+    key = "grey: where a bin falls with 99 % probability if calibrated"
     if "audio" in levels:
-        what += "; filled: simulated onsets, outline: the extractor's"
-    fig.suptitle(f"Rank histograms, {settings.model} model ({what})", fontsize=10)
+        key += "; filled: simulated onsets, outline: the extractor's"
+    # Two lines: on one, the key ran past the figure's edges.
+    fig.suptitle(f"Rank histograms, {settings.model} model ({settings.n} simulations, ranks "
+                 f"among {settings.rank_draws} posterior draws)\n{key}", fontsize=10)
     return fig
 
 
