@@ -30,15 +30,11 @@ import json
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import binom
+
+from drumroll.inference.calibration import coverage
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT = ROOT / "examples" / "output" / "calibrate-audio" / "calibration.json"
-
-
-def band(n: int, p: float = 0.9) -> tuple[float, float]:
-    """The binomial 99 % band of a calibrated coverage over ``n`` rolls."""
-    return binom.ppf(0.005, n, p) / n, binom.ppf(0.995, n, p) / n
 
 
 def hearing_class(hearing: dict) -> str:
@@ -53,33 +49,34 @@ def hearing_class(hearing: dict) -> str:
     return "misnumbered later"
 
 
-def rows(draws: list[dict], quantities: list[str], level: str) -> dict[str, tuple[float, float]]:
-    """Coverage and z spread of each quantity at ``level`` ("audio" or "onsets")."""
+def rows(draws: list[dict], quantities: list[str], level: str) -> dict[str, tuple]:
+    """The 90 % :func:`~drumroll.inference.calibration.coverage` and the spread of z of each
+    quantity at ``level`` ("audio" or "onsets"; the heard fits' T0 has its own truth)."""
     out = {}
     for key in quantities:
-        covered = [d[level]["covered_90"][key] for d in draws if key in d[level]["covered_90"]]
-        truth_key = "audio_t0_s" if key == "t0_s" and level == "audio" else None
-        z = [((d[level]["mean"][key] - (d[truth_key] if truth_key else d["truth"][key]))
-              / d[level]["sd"][key]) for d in draws if key in d[level]["mean"]]
-        out[key] = (float(np.mean(covered)) if covered else np.nan,
+        fits = [d for d in draws if key in d[level]["mean"]]
+        truth = [d["audio_t0_s"] if key == "t0_s" and level == "audio" else d["truth"][key]
+                 for d in fits]
+        z = [(d[level]["mean"][key] - t) / d[level]["sd"][key]
+             for d, t in zip(fits, truth, strict=True)]
+        out[key] = (coverage([d[level]["covered_90"][key] for d in fits], 0.9),
                     float(np.std(z)) if z else np.nan)
     return out
 
 
 def show(label: str, draws: list[dict], quantities: list[str], onsets_too: bool) -> None:
-    n = len(draws)
-    if n == 0:
+    """One line per level: each quantity's coverage (* outside the band) and z spread."""
+    if not draws:
         return
-    low, high = band(n)
-    heard = rows(draws, quantities, "audio")
-    text = "  ".join(f"{k} {c:.2f}{'*' if not low <= c <= high else ' '} ({s:.2f})"
-                     for k, (c, s) in heard.items())
-    print(f"  {label:34s} {n:4d}  band {low:.2f}-{high:.2f}  heard: {text}")
-    if onsets_too:
-        fitted = rows(draws, quantities, "onsets")
-        text = "  ".join(f"{k} {c:.2f}{'*' if not low <= c <= high else ' '} ({s:.2f})"
-                         for k, (c, s) in fitted.items())
-        print(f"  {'':34s} {'':4s}  {'':15s}  onsets: {text}")
+    levels = ("audio", "onsets") if onsets_too else ("audio",)
+    for level in levels:
+        found = rows(draws, quantities, level)
+        text = "  ".join(f"{k} {c.rate:.2f}{' ' if c.inside else '*'} ({s:.2f})"
+                         for k, (c, s) in found.items())
+        some = next(iter(found.values()))[0]
+        head = (f"{label:34s} {len(draws):4d}  band {some.band_low:.2f}-{some.band_high:.2f}"
+                if level == "audio" else f"{'':34s} {'':4s}  {'':15s}")
+        print(f"  {head}  {'heard' if level == 'audio' else 'onsets'}: {text}")
 
 
 def main() -> None:
@@ -89,8 +86,13 @@ def main() -> None:
     parser.add_argument("--quantities", nargs="+", default=["alpha", "t_b", "t0_s",
                                                              "jitter_ms"])
     args = parser.parse_args()
-    result = json.loads(args.path.read_text())
-    draws = [d for d in result["draws"] if d.get("audio") and d.get("hearing")]
+    try:
+        result = json.loads(args.path.read_text())
+    except (OSError, ValueError) as exc:
+        parser.error(f"{args.path}: not a calibration.json ({exc})")
+    draws = [d for d in result.get("draws", []) if d.get("audio") and d.get("hearing")]
+    if not draws:
+        parser.error(f"{args.path}: no roll was heard (run drumroll calibrate with --audio)")
     print(f"{args.path}: {len(draws)} rolls heard; 90 % coverage of the heard fits (spread of "
           "z in brackets; * outside the band)")
     print("by hearing:")
