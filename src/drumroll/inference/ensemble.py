@@ -100,3 +100,33 @@ class EnsembleSampler(emcee.EnsembleSampler):
         if np.any(np.isnan(log_prob)):
             raise ValueError("Probability function returned NaN")
         return log_prob, None
+
+
+class AtomReflectMove(emcee.moves.MHMove):
+    """Each walker proposes its own mirror image across 0 in one column that stands for an
+    effect that may be absent (an atom at 0: z < 0 "absent", z ≥ 0 the effect's size; see
+    :class:`~drumroll.inference.coordinates.SamplerCoordinates`), the column drawn at random
+    per walker, every other coordinate kept.
+
+    Differential evolution moves a walker between "absent" and "present" only where the
+    ensemble's differences happen to point across 0, and the share of walkers on each side
+    then mixes slowly (its autocorrelation time set how long the small-angle model of the
+    README's roll was sampled). The mirror z_j → −z_j is its own inverse with unit Jacobian,
+    so Metropolis–Hastings accepts it with the ratio of the densities alone and keeps the
+    target invariant; the coordinates' plateau (twice the effect's posterior spread) and
+    ridge (the other columns follow the effect's size) put the image of a typical "present"
+    walker among the typical "absent" ones, and the other way round.
+    """
+
+    def __init__(self, columns: tuple[int, ...]) -> None:
+        if not columns:
+            raise ValueError("a reflection needs at least one atom column")
+        self.columns = np.asarray(columns, dtype=np.intp)
+        super().__init__(self._reflect)
+
+    def _reflect(self, coords: NDArray, random) -> tuple[NDArray, NDArray]:
+        proposal = coords.copy()
+        rows = np.arange(coords.shape[0])
+        column = self.columns[random.randint(self.columns.size, size=coords.shape[0])]
+        proposal[rows, column] = -coords[rows, column]
+        return proposal, np.zeros(coords.shape[0])

@@ -396,24 +396,37 @@ def _negative_with_gradient(target: SamplerTarget, scale: NDArray
 #: invariant (on a 6-d Gaussian alone it shrinks the variances by ~30 %; dfm/emcee#531); it is
 #: not used.
 JUMP_PROBABILITY = 0.1
+#: Where effects may be absent (atoms at 0), one step in ten is instead each walker's mirror
+#: image across 0 in one such column (:class:`~drumroll.inference.ensemble.AtomReflectMove`),
+#: which moves walkers between "absent" and "present" directly. On the README's roll it cut
+#: the small-angle model's steps from 1554 to 1076 (the contact time's τ from 37 to 26 steps)
+#: and the exact pendulum's from 683 to 610; P(absent) and every mean and sd are unchanged
+#: within their Monte Carlo error (six seeds at ESS 6000 each way).
+REFLECT_PROBABILITY = 0.1
 
 
-def moves() -> list:
+def moves(atom_columns: tuple[int, ...] = ()) -> list:
     """emcee's red-blue differential-evolution moves with their weights (see above), their
-    acceptance step vectorised (:mod:`~drumroll.inference.ensemble`: the same chain)."""
-    from drumroll.inference.ensemble import DEMove
+    acceptance step vectorised (:mod:`~drumroll.inference.ensemble`: the same chain), and
+    with ``atom_columns`` (columns of z that stand for an effect that may be absent) the
+    reflection across 0 of :data:`REFLECT_PROBABILITY`."""
+    from drumroll.inference.ensemble import AtomReflectMove, DEMove
 
-    return [(DEMove(), 1.0 - JUMP_PROBABILITY), (DEMove(gamma0=1.0), JUMP_PROBABILITY)]
+    de = [(DEMove(), 1.0 - JUMP_PROBABILITY), (DEMove(gamma0=1.0), JUMP_PROBABILITY)]
+    if not atom_columns:
+        return de
+    return [*((move, weight * (1.0 - REFLECT_PROBABILITY)) for move, weight in de),
+            (AtomReflectMove(atom_columns), REFLECT_PROBABILITY)]
 
 
 def ensemble_sampler(target: Callable[[NDArray], NDArray], walkers: int, ndim: int,
-                     seed: int):
+                     seed: int, atom_columns: tuple[int, ...] = ()):
     """An :class:`emcee.EnsembleSampler` of ``target`` (one batched call per half-ensemble;
     :class:`drumroll.inference.ensemble.EnsembleSampler`), seeded by ``seed`` and moved by
-    :func:`moves`."""
+    :func:`moves` (with the reflection across 0 in ``atom_columns``)."""
     from drumroll.inference.ensemble import EnsembleSampler
 
-    sampler = EnsembleSampler(walkers, ndim, target, moves=moves(), vectorize=True)
+    sampler = EnsembleSampler(walkers, ndim, target, moves=moves(atom_columns), vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()  # emcee draws from a RandomState
     return sampler
 
@@ -470,7 +483,8 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
         start = coordinates.to_sampler(present)
         if progress is not None:
             progress(first, settings.max_steps)
-    sampler = ensemble_sampler(target, walkers, ndim, _walk_seeds(settings)[0])
+    sampler = ensemble_sampler(target, walkers, ndim, _walk_seeds(settings)[0],
+                               coordinates.atom_columns)
     converged, checks, steps, state = False, 0, 0, start
     until = min(settings.check_every, settings.max_steps - first)
     while True:

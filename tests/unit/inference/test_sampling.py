@@ -96,6 +96,41 @@ def test_moves_keep_a_correlated_gaussian_invariant():
     np.testing.assert_allclose(np.corrcoef(flat.T), corr, atol=0.03)
 
 
+def test_reflection_keeps_an_atom_and_its_slab_in_proportion():
+    """An effect that may be absent, in sampler coordinates (column 0: a plateau [−2, 0) of
+    mass 0.3 for "absent", a half-normal slab of mass 0.7 for its size; columns 1 and 2 a
+    correlated Gaussian that does not care): sampled with the reflection across 0 among the
+    moves, the share of draws on the plateau is 0.3 and the slab's mean √(2/π), within their
+    Monte Carlo errors, and the other columns keep their Gaussian."""
+    p_absent, plateau = 0.3, 2.0
+    cov = np.array([[1.0, 0.8], [0.8, 1.0]])
+    precision = np.linalg.inv(cov)
+
+    def target(z):
+        atom = np.where(z[:, 0] < 0.0,
+                        np.where(z[:, 0] >= -plateau, math.log(p_absent / plateau), -np.inf),
+                        math.log((1.0 - p_absent) * 2.0 / math.sqrt(2.0 * math.pi))
+                        - 0.5 * z[:, 0] ** 2)
+        rest = z[:, 1:]
+        return atom - 0.5 * np.einsum("ij,jk,ik->i", rest, precision, rest)
+
+    rng = np.random.default_rng(3)
+    sampler = ensemble_sampler(target, 32, 3, seed=5, atom_columns=(0,))
+    start = np.column_stack([rng.uniform(0.1, 1.0, 32), rng.multivariate_normal([0, 0], cov, 32)])
+    sampler.run_mcmc(start, 4000)
+    samples = np.swapaxes(sampler.get_chain(discard=300, thin=5), 0, 1)
+    absent = (samples[..., 0] < 0.0).astype(float)
+    stats = convergence.diagnose({"absent": absent, "z1": samples[..., 1]})
+    n_eff = min(s["ess_bulk"] for s in stats.values())
+    assert n_eff > 1000
+    share = absent.mean()
+    assert abs(share - p_absent) < 4 * math.sqrt(p_absent * (1 - p_absent) / n_eff)
+    slab = samples[..., 0][samples[..., 0] >= 0.0]
+    assert abs(slab.mean() - math.sqrt(2 / math.pi)) < 4 * 0.6 / math.sqrt(n_eff * (1 - share))
+    rest = samples[..., 1:].reshape(-1, 2)
+    np.testing.assert_allclose(np.cov(rest.T), cov, atol=0.1)
+
+
 def test_lean_sampler_gives_emcee_s_own_chain():
     """The vectorised acceptance step and log-density bookkeeping
     (:mod:`drumroll.inference.ensemble`) draw emcee's random numbers in emcee's order: the
