@@ -18,6 +18,7 @@ import importlib
 import math
 import os
 import time
+from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -735,10 +736,12 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         settings.sampler, target_ess=min(settings.sampler.target_ess, EVIDENCE_ONLY_ESS)))
     screens, screen_evidences = numberings.screens, numberings.screen_evidences
 
-    def screen_numberings() -> None:
+    def screen_numberings(between: Callable[[], None] | None = None) -> None:
         """Screen each other numbering (and in the first pass the fitted one too, so that a
         roll that begins late is refitted before its misnumbered fits end: they are slow, as
-        a model that fits badly is); then :func:`check_screens`."""
+        a model that fits badly is); then :func:`check_screens`. ``between`` is called
+        before each screen (the fits that are back are taken in, so that none waits for the
+        screens: the main model's figures start as soon as its fit is back)."""
         begun = time.perf_counter()
         targets = dict(renumbered)
         if first_pass and renumbered:
@@ -746,6 +749,10 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         for missed, log_posterior in targets.items():
             if missed in screens:  # screened in the first pass
                 continue
+            if between is not None:
+                started_between = time.perf_counter()
+                between()
+                begun += time.perf_counter() - started_between  # not the screens' time
             found = screen(log_posterior, seeds[config.model])
             evidence = screened_evidence(log_posterior, found, seeds[config.model])
             extra = own_density.get(missed, 0.0)
@@ -844,9 +851,11 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                            for m in models}
                 if first_pass:
                     _while_sampling(listener, onsets, recording)
-                screen_numberings()
-                while pending:
-                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                screened = False
+
+                def take(done) -> None:
+                    """Take in the fits that are back; the main model's numberings are
+                    fitted once it and every screen are back."""
                     for future in done:
                         task = pending.pop(future)
                         if isinstance(task, int):
@@ -857,10 +866,23 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                         finish(task, future.result())
                         say(f"{task}: done")
                         bar.advance(note=task)
-                        if task == config.model and renumbered:
-                            pending.update({pool.submit(*renumbered_fit(missed)): missed
-                                            for missed in numberings_to_fit(bar)})
-                            check_numbering()
+                        if task == config.model and screened:
+                            fit_numberings()
+
+                def fit_numberings() -> None:
+                    if renumbered:
+                        pending.update({pool.submit(*renumbered_fit(missed)): missed
+                                        for missed in numberings_to_fit(bar)})
+                        check_numbering()
+
+                screen_numberings(
+                    between=lambda: take(wait(pending, timeout=0,
+                                              return_when=FIRST_COMPLETED)[0]))
+                screened = True
+                if config.model in fits:  # back while the screens were made
+                    fit_numberings()
+                while pending:
+                    take(wait(pending, return_when=FIRST_COMPLETED)[0])
     fits = {model: fits[model] for model in models}  # in the config's order
     seconds["sampling"] = time.perf_counter() - started - post_seconds
 
