@@ -88,11 +88,16 @@ def _value(value: Any, text: str, source: str | None) -> Content:
     return (number(value, format(value, text).replace("-", "−"), source),)
 
 
+def _flagged(shown: Content, passes: bool) -> Content:
+    """``shown`` as it is, or strong with ⚠ where it fails its test."""
+    return shown if passes else (Strong(shown), " ⚠")
+
+
 def _coverage(c: Any, source: str) -> Content:
     """``0.91 ± 0.02`` (the error: half the 68 % Clopper–Pearson interval), strong with ⚠
     outside the 99 % band."""
     shown = number(c.rate, f"{c.rate:.2f} ± {c.error:.2f}", f"{source}/rate", error=c.error)
-    return (shown,) if c.inside else (Strong((shown,)), " ⚠")
+    return _flagged((shown,), c.inside)
 
 
 def _p_value(p: Any, source: str) -> Content:
@@ -101,7 +106,7 @@ def _p_value(p: Any, source: str) -> Content:
         low = float(p) < CHI_SQUARE_LEVEL
     except (TypeError, ValueError):
         low = False
-    return (Strong(shown), " ⚠") if low else shown
+    return _flagged(shown, not low)
 
 
 def quantity_table(result: Any, level: str, keys: tuple[str, ...]) -> Table:
@@ -259,7 +264,7 @@ def _by_jitter(keys: tuple[str, ...], draws: list[Any]) -> tuple[Block, ...]:
                 cells.append(("—",))
                 continue
             shown = f"{heard.rate:.2f} ({fitted.rate:.2f})" if fitted.n else f"{heard.rate:.2f}"
-            cells.append((shown,) if heard.inside else (Strong((shown,)), " ⚠"))
+            cells.append(_flagged((shown,), heard.inside))
         rows.append((_label(key), *cells))
     header = (("quantity",), *((f"σ {jitter[m].min():.2g} to {jitter[m].max():.2g} ms "
                                  f"({m.size} rolls)",) for m in thirds))
