@@ -258,14 +258,16 @@ class CandidateStream:
 def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
                   highpass: LinearFilter, settle: int, *, pre: int, post: int,
                   search: int, search_after: int | None = None, level: int = 0,
-                  prior: Prior | None = None, codec_block: int = 0) -> Refined:
+                  prior: Prior | None = None, codec_block: int = 0,
+                  within: tuple[int, int] | None = None) -> Refined:
     """Refine an onset near absolute sample ``guess`` of raw samples ``buf`` (``buf[0]`` is
     absolute sample ``buf0``): the wide high-pass (its cascade of sections) is run from rest
     ``settle`` samples before the refinement window. Returns the refined onset with an
     absolute ``sample`` and, if ``level`` > 0, the peak of the high-passed sound over
     ``level`` samples from it. ``prior`` (optional) is in absolute samples; ``codec_block``
     is the stretch a lossy codec's noise may precede a sound by
-    (:func:`~.refine.out_of_codec_noise`; 0: lossless)."""
+    (:func:`~.refine.out_of_codec_noise`; 0: lossless); ``within`` (optional, absolute
+    samples) narrows where the onset may land (:func:`~.refine.refine_onset`)."""
     a = max(guess - pre - settle, 0)
     after = search if search_after is None else search_after
     b = guess + max(post + codec_block, after + level)
@@ -279,7 +281,8 @@ def refine_window(buf: np.ndarray, buf0: int, guess: int, sample_rate: int,
     r = refine_onset(y, guess - a, sample_rate, pre=pre, post=post, search=search,
                      search_after=search_after,
                      prior=None if prior is None else prior.shifted(-a),
-                     codec_block=codec_block)
+                     codec_block=codec_block,
+                     within=None if within is None else (within[0] - a, within[1] - a))
     peak = float(np.abs(y[r.sample: r.sample + level]).max()) if level > 0 else float("nan")
     return Refined(r.sample + a, r.amplitude, r.snr_db, r.sigma_s, r.rise_s, peak,
                    r.raw_snr_db)

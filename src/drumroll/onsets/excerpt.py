@@ -119,9 +119,10 @@ class Excerpt:
 
     def refine(self, guess: int, *, pre: int, post: int, search: int,
                search_after: int | None = None, prior: Prior | None = None,
-               level: int = 0) -> Refined:
+               level: int = 0, within: tuple[int, int] | None = None) -> Refined:
         """Refine an onset near absolute sample ``guess`` (see
         :func:`~.candidates.refine_window`); the returned ``sample`` is absolute."""
         return refine_window(self.x, self.start, guess, self.sr, self.wide, self.settle,
                              pre=pre, post=post, search=search, search_after=search_after,
-                             prior=prior, level=level, codec_block=self.codec_block)
+                             prior=prior, level=level, codec_block=self.codec_block,
+                             within=within)

@@ -271,7 +271,8 @@ def whiten(x: np.ndarray, fit: np.ndarray, order: int) -> np.ndarray:
 
 def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post: int,
                  search: int, search_after: int | None = None, order: int = 16,
-                 prior: Prior | None = None, codec_block: int = 0) -> Refined:
+                 prior: Prior | None = None, codec_block: int = 0,
+                 within: tuple[int, int] | None = None) -> Refined:
     """Refine an onset near ``y[guess]`` on the high-passed signal ``y``.
 
     Parameters
@@ -297,6 +298,11 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
         For a lossy file, the longest stretch (samples) over which its codec spreads noise
         ahead of an impact (:func:`out_of_codec_noise`; ``y`` should extend that far past
         ``guess + post``); 0 for lossless audio.
+    within
+        The first and last sample (indices into ``y``) the onset may be placed at, inside
+        the searched stretch (default: all of it). The window, its whitening and every
+        split's likelihood stay those of the whole search; only where the onset may land
+        is narrowed.
     """
     start = guess - pre
     lo_pad = max(0, -start)
@@ -315,7 +321,10 @@ def refine_onset(y: np.ndarray, guess: int, sample_rate: int, *, pre: int, post:
     after = search if search_after is None else search_after
     fit_end = max(pre - search, order + 2)
     disp = dispersion(x[order:fit_end])
-    k, spread = aic_onset(x, fit_end, pre + after + 1, disp,
+    first, last = fit_end, pre + after + 1
+    if within is not None:
+        first, last = max(first, within[0] - start), min(last, within[1] - start + 1)
+    k, spread = aic_onset(x, first, last, disp,
                           None if prior is None else prior.shifted(-start))
     noise_from = k
     if codec_block > 0:

@@ -18,6 +18,20 @@ and each onset is placed at its posterior. Where the sound has a clear start the
 is sharp and the prior does not matter; where it has none the prior decides; where the roll
 is irregular the measured scatter is large and the prior is weak. The prior is robust (a
 Gaussian mixed with a uniform), so a clear onset off the fitted law stays where it is.
+
+The onset is placed no further than :data:`~.refine.IMPACT_RISE_S` from its own change point
+(and, in a lossy file, a codec block: its noise may precede the sound by that much). A
+change point on a bounce's growing sound lies no further behind its start than the sound
+takes to rise out of what it lands in, and an impact's sound is within 15 dB of its peak that
+soon after its start (measured on real impacts: :data:`~.refine.IMPACT_RISE_S`). Further off,
+the searched stretch, wide where the roll's measured scatter is large, holds other sounds
+(the last bounce's ring, an echo, a tap before the roll), and the split lands on one of them:
+in the 40 rolls of the audio calibration whose bouncer keeps its law only to milliseconds,
+11.6 % of the onsets ended more than 3 ms from their impact, most moved there by this stage
+(a first impact moved 39 ms back, onto a tap), and 5.0 % with the bound. The searched stretch
+and its whitening are those of the whole search; only where the onset may land is narrowed,
+so an onset the bound does not hold back is placed exactly as before. On the shared corpus
+F1 at 2 ms went from 0.978 to 0.983, on the real ping-pong from 0.990 to 1.
 """
 
 from __future__ import annotations
@@ -28,7 +42,7 @@ import numpy as np
 
 from drumroll.onsets.excerpt import Excerpt
 from drumroll.onsets.numerics import cauchy_least_squares
-from drumroll.onsets.refine import Prior
+from drumroll.onsets.refine import IMPACT_RISE_S, Prior
 from drumroll.onsets.roll import Roll
 
 #: MAD to Gaussian standard deviation.
@@ -177,6 +191,9 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05,
         return roll
     sr = ex.sr
     margin = round(0.001 * sr)
+    # How far from its own change point an onset may be moved (module docstring); in a
+    # lossy file the change point may also be the start of the codec's noise ahead of it.
+    bound = round(IMPACT_RISE_S * sr) + ex.codec_block
     out = []
     # An onset is searched for between the middles of the flights either side of it: the
     # bounces keep their order whatever the law says.
@@ -193,6 +210,7 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05,
         prior = Prior(mean=mu * sr, sd=sd * sr, outlier=outlier, width=hi - lo,
                       dof=law.dof)
         r = ex.refine(guess, pre=guess - lo + fit, post=2 * margin, search=guess - lo,
-                      search_after=hi - guess, prior=prior)
+                      search_after=hi - guess, prior=prior,
+                      within=(round(t * sr) - bound, round(t * sr) + bound))
         out.append((r.sample / sr, r.amplitude, r.snr_db, r.sigma_s))
     return roll.with_times(*(np.asarray(col, dtype=float) for col in zip(*out, strict=True)))

@@ -571,3 +571,59 @@ def test_a_long_pre_echo_is_not_taken_for_the_sound_it_precedes(seed):
         # The uncertainty is that of a start anywhere over where the sound can hide.
         assert r.sigma_s >= 0.9 * hidden / np.sqrt(12.0) / sr
         assert r.sigma_s < 1.2 * hidden / np.sqrt(12.0) / sr + 2 / sr
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_refine_within_places_the_onset_only_where_it_is_allowed(seed):
+    """A sound 20 ms before an impact (a tap, the ring of the bounce before) is the first
+    step of a wide search, and the split lands on it; narrowed to the impact's surroundings
+    (``within``: the flight-law stage bounds its moves so), the onset is the impact's start,
+    with the same window and whitening."""
+    from drumroll.onsets.refine import refine_onset
+
+    sr, start = 48000, 3000
+    rng = np.random.default_rng(seed)
+    tap = start - round(0.02 * sr)
+    y = rng.standard_normal(start + 600)
+    y[tap:start] += 60.0 * rng.standard_normal(start - tap) * np.exp(-np.arange(start - tap) / 400)
+    y[start:start + 600] += 200.0 * rng.standard_normal(600) * np.exp(-np.arange(600) / 300)
+    wide = refine_onset(y, start, sr, pre=1500, post=96, search=1200, search_after=96)
+    assert abs(wide.sample - tap) <= 4
+    narrowed = refine_onset(y, start, sr, pre=1500, post=96, search=1200, search_after=96,
+                            within=(start - 96, start + 96))
+    assert abs(narrowed.sample - start) <= 4
+    assert narrowed.sigma_s < 0.1e-3
+
+
+@pytest.mark.parametrize("draw, tap_ms", [(16, 34.5), (70, 16.5)])
+def test_a_sound_before_the_first_impact_does_not_take_its_onset(draw, tap_ms):
+    """Recordings ``calibrate --audio`` renders (table2_h80's priors: a jitter of 4 and 2.5
+    ms, a tap before the roll): the first impact, the roll's loudest, was found where it is,
+    and the flight-law stage, whose search a scatter of milliseconds widens, then moved it
+    back onto the tap ``tap_ms`` before it. Its moves are bounded now (IMPACT_RISE_S): the
+    first onset stays the first impact's."""
+    import io
+
+    import soundfile as sf
+
+    from drumroll.calibration.recording import Recorder
+    from drumroll.calibration.roll import RollSimulator
+    from drumroll.calibration.run import draw_seeds
+    from drumroll.config import load_config
+    from drumroll.onsets import detect
+    from drumroll.pipeline import choose_roll
+    from drumroll.simulation.simulate import render_roll
+
+    config = load_config(DATA / "table2_h80.toml")
+    roll_rng, sound_rng, _, _ = draw_seeds(0, draw)
+    roll = RollSimulator(config, config.model, 16).draw(roll_rng)
+    recorder = Recorder(config)
+    rendering = render_roll(recorder.settings, recorder.sources, roll.times - roll.t0,
+                            roll.speeds, sound_rng)
+    buffer = io.BytesIO()  # as calibrate hears it: a 16-bit WAV
+    sf.write(buffer, rendering.samples, rendering.sample_rate, subtype="PCM_16", format="WAV")
+    buffer.seek(0)
+    samples, rate = sf.read(buffer, dtype="float64")
+    first = choose_roll(detect(samples, rate)).onsets.time_s[0]
+    impacts = rendering.impact_times_s
+    assert abs(first - impacts[0]) < 0.5e-3, (first - impacts[0]) * 1e3
