@@ -19,22 +19,21 @@ is sharp and the prior does not matter; where it has none the prior decides; whe
 is irregular the measured scatter is large and the prior is weak. The prior is robust (a
 Gaussian mixed with a uniform), so a clear onset off the fitted law stays where it is.
 
-An onset is moved further from its own change point than :data:`~.refine.IMPACT_RISE_S`
-(in a lossy file, a codec block more: its noise may precede the sound by that much) only onto
-a sound at least as loud as the one it leaves. A change point on a bounce's growing sound
-lies no further behind its start than the sound takes to rise out of what it lands in, and an
-impact's sound is within 15 dB of its peak that soon after its start (measured on real
-impacts: :data:`~.refine.IMPACT_RISE_S`); further off, the search, which a roll's scatter of
-milliseconds widens, holds other sounds (a tap before the roll, the ring of the bounce
-before, an echo), and a split there is either on one of them, fainter than the impact, or on
-the impact itself from a fainter sound before it (the real ping-pong's first onset, on a
-sound 4 ms and 57 dB ahead of the ball's first click, moved onto the click). A move onto a
-fainter sound is looked for again within that reach, and where the best split there is at its
-end (the evidence points further off) the onset stays as it was. In the 40 rolls of the
-audio calibration whose bouncer keeps its law only to milliseconds, 11.6 % of the onsets had
-ended more than 3 ms from their impact, most moved there by this stage (a first impact 39 ms
-back, onto a tap), and 3.1 % do now. The shared corpus's onsets are timed as before; the real
-ping-pong's F1 at 2 ms goes from 0.990 to 1 (its timing MAD from 0.160 to 0.171 ms).
+An onset is moved further from its own change point than :data:`~.start.LOUD_STAGE_S` (in a
+lossy file, a codec block more: its noise may precede the sound by that much) only onto a
+sound at least as loud as the one it leaves. The stage exists for a faint bounce found at the
+loud stage of its sound, and that stage comes no later than :data:`~.start.LOUD_STAGE_S`
+after its start; further off, the search, which a roll's scatter of milliseconds widens,
+holds other sounds (a tap before the roll, the ring of the bounce before, an echo), and a
+split there is either on one of them, fainter than the impact, or on the impact itself from
+a fainter sound before it (the real ping-pong's first onset, on a sound 4 ms and 57 dB ahead
+of the ball's first click, moves onto the click). A move onto a fainter sound is looked for
+again within that reach, and where the best split there is at its end (the evidence points
+further off) the onset stays as it was. In the 40 rolls of the audio calibration whose
+bouncer keeps its law only to milliseconds, 11.6 % of the onsets had ended more than 3 ms
+from their impact and 14.8 % more than 1 ms, most moved there by this stage (a first impact
+39 ms back, onto a tap); now 5.9 % and 9.5 %. Every onset of the bundled recordings, the
+shared corpus and the real ping-pong is where it was.
 """
 
 from __future__ import annotations
@@ -45,8 +44,9 @@ import numpy as np
 
 from drumroll.onsets.excerpt import Excerpt
 from drumroll.onsets.numerics import cauchy_least_squares
-from drumroll.onsets.refine import IMPACT_RISE_S, Prior
+from drumroll.onsets.refine import Prior
 from drumroll.onsets.roll import Roll
+from drumroll.onsets.start import LOUD_STAGE_S
 
 #: MAD to Gaussian standard deviation.
 _MAD_TO_SIGMA = 1.4826
@@ -196,7 +196,7 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05,
     margin = round(0.001 * sr)
     # How far from its own change point an onset may be moved (module docstring); in a
     # lossy file the change point may also be the start of the codec's noise ahead of it.
-    bound = round(IMPACT_RISE_S * sr) + ex.codec_block
+    bound = round(LOUD_STAGE_S * sr) + ex.codec_block
     out = []
     # An onset is searched for between the middles of the flights either side of it: the
     # bounces keep their order whatever the law says.

@@ -46,6 +46,10 @@ from drumroll.stats import student_t_logpdf_fixed
 #: impact's loudest stage comes within a few ms of its start.
 BACK_S = 0.008
 
+#: How late a faint bounce's change point can be: at its loud stage, up to 5 ms after its
+#: start (a snare's wires slap about one head period after contact; module docstring).
+LOUD_STAGE_S = 0.005
+
 #: An onset this many predictive sd later than the roll puts it is searched for an earlier
 #: start.
 LATE = 2.0

@@ -244,8 +244,8 @@ _MIN_PER_THIRD = 10
 def _by_jitter(keys: tuple[str, ...], draws: list[Any]) -> tuple[Block, ...]:
     """The rolls the extractor numbered right, in thirds by their true onset jitter: the heard
     fits' coverage beside the same rolls' fits of their simulated onsets. Where a roll's onsets
-    scatter by milliseconds the tracker leaves out the bounces far off the flight law, and the
-    heard fits' bars come out too narrow; the split shows from which jitter on."""
+    scatter by milliseconds the extractor's choice and timing of bounces, which lean on the
+    flight law, can narrow the heard fits' bars; the split shows from which jitter on."""
     jitter = np.array([d.truth.get("jitter_ms", math.nan) for d in draws], float)
     if jitter.size < 3 * _MIN_PER_THIRD or not np.all(np.isfinite(jitter)) \
             or np.ptp(jitter) == 0:
@@ -272,9 +272,9 @@ def _by_jitter(keys: tuple[str, ...], draws: list[Any]) -> tuple[Block, ...]:
                       "by the jitter their onsets were simulated with; in brackets the same "
                       "rolls fitted from their simulated onsets. ⚠: the heard coverage outside "
                       "the 99 % band for that many rolls. Bars that hold at small jitter and "
-                      "not at large are the extractor's doing: at a jitter of milliseconds it "
-                      "leaves out the bounces far off the flight law, and the fit sees those "
-                      "that kept to it.",))
+                      "not at large are the extractor's doing: it finds and times bounces with "
+                      "the flight law's help, which a roll whose onsets scatter by "
+                      "milliseconds keeps only loosely.",))
     return (Paragraph(("The rolls numbered right, by their jitter:",)),
             Table(header, tuple(rows), (None, "right", "right", "right"), notes=(note,)))
 

@@ -600,8 +600,8 @@ def test_a_sound_before_the_first_impact_does_not_take_its_onset(draw, tap_ms):
     """Recordings ``calibrate --audio`` renders (table2_h80's priors: a jitter of 4 and 2.5
     ms, a tap before the roll): the first impact, the roll's loudest, was found where it is,
     and the flight-law stage, whose search a scatter of milliseconds widens, then moved it
-    back onto the tap ``tap_ms`` before it. Its moves are bounded now (IMPACT_RISE_S): the
-    first onset stays the first impact's."""
+    back onto the tap ``tap_ms`` before it. A move that far onto a fainter sound is refused now
+    (``LOUD_STAGE_S``): the first onset stays the first impact's."""
     import io
 
     import soundfile as sf
