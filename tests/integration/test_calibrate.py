@@ -223,7 +223,11 @@ def test_audio_calibration_hears_every_roll(tmp_path):
     assert set(result.audio.parameters) == set(result.onsets.parameters)
     for draw in result.draws:
         assert draw.hearing.n_impacts == 16 and draw.hearing.n_heard >= 4
-        assert draw.audio.n_onsets == draw.hearing.n_heard
+        # The fit holds every onset heard, less a first one the estimate took for a sound
+        # before the roll, and only where the first onset is no impact (draw 0: the tap the
+        # [simulate] section puts before the roll).
+        dropped = draw.hearing.n_heard - draw.audio.n_onsets
+        assert dropped == 0 or (dropped == 1 and draw.hearing.first < 0)
         assert draw.audio_t0_s is not None
     write_calibration(result, tmp_path / "out")
     assert "## From recordings: what the extractor changes" in (

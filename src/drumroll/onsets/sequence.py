@@ -24,7 +24,7 @@ lossy file, a codec block more: its noise may precede the sound by that much) on
 sound at least as loud as the one it leaves. The stage exists for a faint bounce found at the
 loud stage of its sound, and that stage comes no later than :data:`~.start.LOUD_STAGE_S`
 after its start; further off, the search, which a roll's scatter of milliseconds widens,
-holds other sounds (a tap before the roll, the ring of the bounce before, an echo), and a
+holds other sounds (a tap before the roll, sounds in the ring before a bounce), and a
 split there is either on one of them, fainter than the impact, or on the impact itself from
 a fainter sound before it (the real ping-pong's first onset, on a sound 4 ms and 57 dB ahead
 of the ball's first click, moves onto the click). A move onto a fainter sound is looked for
@@ -217,10 +217,10 @@ def retime_by_law(roll: Roll, ex: Excerpt, *, outlier: float = 0.05,
                       search_after=hi - guess, prior=prior)
         r = ex.refine(guess, **search)
         if abs(r.sample - here) > bound and not r.amplitude >= roll.amplitude[j]:
-            # Further from the onset's own change point than a sound takes to rise, onto a
-            # fainter sound: another one (module docstring). Only within reach, then; and
-            # where the best split there is at its end, the evidence points further off,
-            # where the onset may not go, and it stays as it was.
+            # Further from the onset's own change point than a faint bounce's loud stage lags
+            # its start, onto a fainter sound: another one (module docstring). Only within
+            # reach, then; and where the best split there is at its end, the evidence points
+            # further off, where the onset may not go, and it stays as it was.
             r = ex.refine(guess, **search, within=(here - bound, here + bound))
             if abs(r.sample - here) >= bound - 1:
                 out.append((t, roll.amplitude[j], roll.snr_db[j], roll.sigma_s[j]))
