@@ -1,0 +1,76 @@
+"""The extractor on sounds the project's own simulator does not make (``tests/foreign_rolls.py``:
+damped tones, noise bursts, a slow attack, inharmonic modes), as another simulator or another
+bouncer would give them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drumroll.onsets import detect
+from drumroll.onsets.candidates import CandidateStream
+from foreign_rolls import ATTACK_S, SHAPES, foreign_roll
+
+RATE = 44100
+
+
+#: Why the extractor fails where it does on these sounds (strict: a change that mends one is
+#: noticed). The detection function of a band is standardised by its own local median and
+#: spread (:func:`drumroll.onsets.peaks.local_robust_z`). A pure tone's smooth decay makes
+#: that band's rise ratio steadier than noise makes it and puts its median below no change
+#: (a 20 ms decay: about -3 dB), so where the tone has decayed into the noise, the noise
+#: reads as rises: candidates between the impacts that the tracker can follow as a roll of
+#: their own. Standardising each band and their sum by at least their centre and spread on
+#: noise alone mends every case below (tried on 2026-12-06), but moves onsets of the bundled
+#: recordings and lowers F1 on drumroll's own simulated grid (0.996 / 0.989 / 0.981 to
+#: 0.995 / 0.985 / 0.979 at 30 / 20 / 12 dB), so it has not landed.
+DECAY_INTO_NOISE = pytest.mark.xfail(
+    strict=True, reason="the noise after a pure tone's smooth decay stands out against the "
+    "decay's own statistics (DECAY_INTO_NOISE's comment)")
+
+
+@pytest.mark.parametrize(("spacing", "noise_db"), [
+    pytest.param(0.2, -45.0, marks=DECAY_INTO_NOISE),
+    pytest.param(0.15, -40.0, marks=DECAY_INTO_NOISE)])
+def test_pure_tones_dying_into_noise_leave_no_candidates_behind(spacing, noise_db):
+    """Damped 3 kHz tones every ``spacing`` seconds in white noise: their starts are the only
+    candidates (today five and three more, between them)."""
+    rng = np.random.default_rng(0)
+    starts = 0.5 + spacing * np.arange(8)
+    x = np.zeros(int((starts[-1] + 0.3) * RATE))
+    t = np.arange(int(0.3 * RATE)) / RATE
+    for start in starts:
+        first = int(start * RATE)
+        stop = min(first + t.size, x.size)
+        x[first:stop] += (np.sin(2 * np.pi * 3000 * t) * np.exp(-t / 0.02))[: stop - first]
+    x += rng.standard_normal(x.size) * 10 ** (noise_db / 20)
+    stream = CandidateStream(RATE)
+    stream.feed(x)
+    found = stream.finish().time_s
+    assert found.size == starts.size, np.round(found, 4)
+    assert np.max(np.abs(found - starts)) < 0.2e-3
+
+
+#: (shape, frequency) cells the extractor fails today, and how.
+FAILING = {("sine", 400): "the last three impacts are lost",
+           ("sine", 3000): "the first two impacts, the loudest, are lost: the tracker "
+                           "follows the candidates after the second as a roll"}
+
+
+@pytest.mark.parametrize(("shape", "frequency"), [
+    pytest.param(shape, frequency, marks=[DECAY_INTO_NOISE] if (shape, frequency) in FAILING
+                 else [], id=f"{shape}-{frequency}")
+    for shape in SHAPES for frequency in (400, 3000)])
+def test_a_foreign_roll_is_found_from_its_first_impact(shape, frequency):
+    """At 40 dB the roll is found from its first impact, every onset on an impact, within
+    0.3 ms (the 1 ms attack's within its rise: it is timed where the rise leaves the noise),
+    and at most one impact left out (``FAILING`` says where that fails, today)."""
+    rng = np.random.default_rng([3, SHAPES.index(shape), frequency, 40])
+    samples, times = foreign_roll(rng, shape, frequency, 40.0, alpha=rng.uniform(0.85, 0.93),
+                                  t_b=rng.uniform(0.2, 0.3), rate=RATE)
+    found = detect(samples, RATE).time_s
+    assert found.size >= times.size - 1, (np.round(found, 4), np.round(times, 4))
+    nearest = np.abs(found[:, None] - times[None, :]).argmin(axis=1)
+    errors = found - times[nearest]
+    within = ATTACK_S if shape == "attack" else 0.3e-3
+    assert nearest[0] == 0 and np.max(np.abs(errors)) < within, np.round(1e3 * errors, 3)
