@@ -26,7 +26,8 @@ RATE = 44100
 #: 0.990 / 0.980 and 0.962 / 0.952 / 0.739 at 30 / 20 / 12 dB), but moves onsets of the
 #: bundled recordings by up to 0.8 ms (the ping-pong's MAD 0.160 to 0.187 ms) and seven
 #: existing tests fail with it; centring each band at no change at the least as well mends
-#: every case below, but lowers F1 at 12 dB (0.981 to 0.976, 0.742 to 0.738).
+#: the other tone case too (not the 400 Hz roll), but lowers F1 at 12 dB (0.981 to 0.976,
+#: 0.742 to 0.738).
 DECAY_INTO_NOISE = pytest.mark.xfail(
     strict=True, reason="the noise after a pure tone's smooth decay stands out against the "
     "decay's own statistics (DECAY_INTO_NOISE's comment)")
