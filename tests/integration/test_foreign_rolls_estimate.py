@@ -1,7 +1,7 @@
 """Honest error bars on recordings made by another simulator: ``estimate`` on rolls of sounds
 drumroll's own renderer does not make (``tests/foreign_rolls.py``), written to WAV files as a
 user's would be. ``benchmarks/foreign_sounds.py`` prints the same over 120 rolls (α's 90 %
-intervals hold the truth in 0.89 of them, t_B's in 0.92)."""
+intervals hold the truth in 0.91 of them, t_B's in 0.93)."""
 
 from __future__ import annotations
 

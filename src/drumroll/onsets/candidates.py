@@ -17,7 +17,9 @@ from drumroll.onsets.dsp import LinearFilter, sos_poles
 from drumroll.onsets.odf import (
     OdfParams,
     band_filters,
+    combined_noise_spread,
     frame_energy,
+    noise_spread_db,
     rise_ratio_db,
     wide_filter,
 )
@@ -51,7 +53,8 @@ _FIELDS = ("time_s", "z", "level", "amplitude", "snr_db", "sigma_s")
 
 
 def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
-               inner: slice, floor: float) -> np.ndarray:
+               inner: slice, floor: float,
+               spreads: tuple[tuple[float, ...], float] | None = None) -> np.ndarray:
     """The standardised multi-band detection function of consecutive frames.
 
     Each band's rise ratio (:func:`~.odf.rise_ratio_db`) is standardised by its own local
@@ -70,13 +73,28 @@ def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
         Frames with a full window on both sides (the statistics use only these).
     floor
         Energy floor per frame.
+    spreads
+        The spreads each band's rise ratio (dB) and their sum have on noise alone
+        (:func:`noise_spreads`), which stand in for a spread far steadier than that
+        (:data:`~.peaks.STEADY`); none by default.
     """
     combined = np.zeros(energies[0].size)
     stride = max(1, post // 2)  # the ratio is a moving window: neighbours are alike
-    for energy in energies:
+    bands, total = spreads if spreads is not None else ((0.0,) * len(energies), 0.0)
+    for energy, spread in zip(energies, bands, strict=True):
         odf = rise_ratio_db(energy, pre, post, floor)
-        combined += np.maximum(local_robust_z(odf, segment, valid=inner, stride=stride), 0.0)
-    return local_robust_z(combined, segment, valid=inner, stride=stride)
+        combined += np.maximum(local_robust_z(odf, segment, valid=inner, stride=stride,
+                                              noise_sigma=spread), 0.0)
+    return local_robust_z(combined, segment, valid=inner, stride=stride, noise_sigma=total)
+
+
+def noise_spreads(params: OdfParams, sample_rate: int, pre: int, post: int
+                  ) -> tuple[tuple[float, ...], float]:
+    """The spreads on white noise :func:`combined_z` judges steadiness by, with these
+    windows, to find candidates: each band's and their sum's (:func:`~.odf.noise_spread_db`,
+    :func:`~.odf.combined_noise_spread`)."""
+    return (noise_spread_db(params, sample_rate, pre, post),
+            combined_noise_spread(params, sample_rate, pre, post))
 
 
 def plateau(z: np.ndarray, f: int, reach: int, within: float = 1.0) -> tuple[int, int]:
@@ -213,8 +231,13 @@ class CandidateStream:
         hi = min(stop + self.context, f0 + min(e.size for e in self.energy))
         inner = slice(min(self.pre, hi - lo), max(hi - lo - self.post, 0))
         energies = [e[lo - f0: hi - f0] for e in self.energy]
+        # Whether a frame is a candidate is decided with a band far steadier than noise
+        # judged by noise's spread (peaks.STEADY). The short-window function that places a
+        # candidate on its rise (below) and the stages' own (excerpt.Excerpt.z) are
+        # standardised as before: they compare frames near a sound, not a sound with noise.
         z = combined_z(energies, self.pre, self.post, self.segment, inner,
-                       FLOOR_PER_SAMPLE * hop)
+                       FLOOR_PER_SAMPLE * hop,
+                       noise_spreads(self.params, self.sr, self.pre, self.post))
         peaks = local_maxima(z, self.threshold, self.half_width)
         peaks = peaks[(peaks + lo >= self.done) & (peaks + lo < stop)]
         rows = []
