@@ -38,23 +38,17 @@ sys.path.insert(0, str(ROOT / "tests"))  # the rolls' one home, shared with the 
 
 import drumroll  # noqa: E402
 from drumroll.config import parse_config  # noqa: E402
-from foreign_rolls import SHAPES, foreign_roll  # noqa: E402
+from foreign_rolls import POWER_LAW_PRIORS, SHAPES, draw_roll  # noqa: E402
 
 RATE = 44100
 TOLERANCE_S = 2e-3
-PRIORS = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
-          "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0},
-          "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10}}
 
 
 def run(cell: tuple[str, float, float, int]) -> dict:
     """Extract and fit one roll: the extractor's matches and the estimate's α and t_B."""
     shape, frequency, snr_db, seed = cell
-    rng = np.random.default_rng([seed, SHAPES.index(shape), int(frequency), int(snr_db)])
-    alpha, t_b = rng.uniform(0.85, 0.93), rng.uniform(0.2, 0.3)
-    samples, times = foreign_roll(rng, shape, frequency, snr_db, alpha=alpha, t_b=t_b,
-                                  rate=RATE)
-    config = parse_config({"model": "powerlaw", "compare": [], "priors": PRIORS,
+    samples, times, alpha, t_b = draw_roll(seed, shape, frequency, snr_db, RATE)
+    config = parse_config({"model": "powerlaw", "compare": [], "priors": POWER_LAW_PRIORS,
                            "sampler": {"evidence": False, "workers": 1}})
     with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
         warnings.simplefilter("ignore")

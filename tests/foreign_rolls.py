@@ -28,6 +28,11 @@ import numpy as np
 
 #: The sound shapes (module docstring).
 SHAPES = ("sine", "cosine", "noise", "attack", "modes")
+#: The priors the rolls are fitted with (``estimate``'s power law): α and t_B flat, the
+#: jitter log-uniform.
+POWER_LAW_PRIORS = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
+                    "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0},
+                    "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10}}
 #: Seconds: each sound's decay time, the attack's ramp, the silence before the first impact
 #: and after the last, the timing noise.
 DECAY_S, ATTACK_S, LEAD_S, TAIL_S, JITTER_S = 0.02, 1e-3, 0.5, 0.6, 1e-4
@@ -71,3 +76,14 @@ def foreign_roll(rng: np.random.Generator, shape: str, frequency: float, snr_db:
     power = np.mean(x[head: head + int(0.02 * rate)] ** 2)
     x = x + rng.standard_normal(x.size) * np.sqrt(power / 10 ** (snr_db / 10))
     return 0.5 * x / np.max(np.abs(x)), times
+
+
+def draw_roll(seed: int, shape: str, frequency: float, snr_db: float, rate: int = 44100
+              ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The roll of one seed, shape, frequency and noise level, α ~ U(0.85, 0.93) and t_B ~
+    U(0.2, 0.3) s: its samples, impact times, α and t_B (the same for the same arguments)."""
+    rng = np.random.default_rng([seed, SHAPES.index(shape), int(frequency), int(snr_db)])
+    alpha, t_b = rng.uniform(0.85, 0.93), rng.uniform(0.2, 0.3)
+    samples, times = foreign_roll(rng, shape, frequency, snr_db, alpha=alpha, t_b=t_b,
+                                  rate=rate)
+    return samples, times, alpha, t_b

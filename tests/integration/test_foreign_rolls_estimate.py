@@ -15,14 +15,11 @@ from scipy.stats import binom
 
 import drumroll
 from drumroll.config import parse_config
-from foreign_rolls import SHAPES, foreign_roll
+from foreign_rolls import POWER_LAW_PRIORS, SHAPES, draw_roll
 
 pytestmark = pytest.mark.slow
 
 RATE = 44100
-PRIORS = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
-          "t_b": {"dist": "uniform", "low": 0.01, "high": 2.0},
-          "jitter_ms": {"dist": "loguniform", "low": 0.01, "high": 10}}
 CELLS = [(shape, frequency, snr) for shape in SHAPES for frequency in (400, 1000, 3000)
          for snr in (40.0, 20.0)]
 
@@ -30,12 +27,10 @@ CELLS = [(shape, frequency, snr) for shape in SHAPES for frequency in (400, 1000
 def fit(cell: tuple[str, int, float], folder: str) -> list[tuple[float, bool]]:
     """One roll of ``cell`` fitted with the power law: (z, covered) of α and of t_B."""
     shape, frequency, snr = cell
-    rng = np.random.default_rng([0, SHAPES.index(shape), frequency, int(snr)])
-    alpha, t_b = rng.uniform(0.85, 0.93), rng.uniform(0.2, 0.3)
-    samples, _ = foreign_roll(rng, shape, frequency, snr, alpha=alpha, t_b=t_b, rate=RATE)
+    samples, _, alpha, t_b = draw_roll(0, shape, frequency, snr, RATE)
     path = f"{folder}/{shape}-{frequency}-{snr:g}.wav"
     sf.write(path, samples, RATE, subtype="PCM_16")
-    config = parse_config({"model": "powerlaw", "compare": [], "priors": PRIORS,
+    config = parse_config({"model": "powerlaw", "compare": [], "priors": POWER_LAW_PRIORS,
                            "sampler": {"evidence": False, "workers": 1}})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

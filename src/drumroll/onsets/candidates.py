@@ -17,9 +17,8 @@ from drumroll.onsets.dsp import LinearFilter, sos_poles
 from drumroll.onsets.odf import (
     OdfParams,
     band_filters,
-    combined_noise_spread,
     frame_energy,
-    noise_spread_db,
+    noise_spreads,
     rise_ratio_db,
     wide_filter,
 )
@@ -75,7 +74,7 @@ def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
         Energy floor per frame.
     spreads
         The spreads each band's rise ratio (dB) and their sum have on noise alone
-        (:func:`noise_spreads`), which stand in for a spread far steadier than that
+        (:func:`~.odf.noise_spreads`), which stand in for a spread far steadier than that
         (:data:`~.peaks.STEADY`); none by default.
     """
     combined = np.zeros(energies[0].size)
@@ -86,15 +85,6 @@ def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
         combined += np.maximum(local_robust_z(odf, segment, valid=inner, stride=stride,
                                               noise_sigma=spread), 0.0)
     return local_robust_z(combined, segment, valid=inner, stride=stride, noise_sigma=total)
-
-
-def noise_spreads(params: OdfParams, sample_rate: int, pre: int, post: int
-                  ) -> tuple[tuple[float, ...], float]:
-    """The spreads on white noise :func:`combined_z` judges steadiness by, with these
-    windows, to find candidates: each band's and their sum's (:func:`~.odf.noise_spread_db`,
-    :func:`~.odf.combined_noise_spread`)."""
-    return (noise_spread_db(params, sample_rate, pre, post),
-            combined_noise_spread(params, sample_rate, pre, post))
 
 
 def plateau(z: np.ndarray, f: int, reach: int, within: float = 1.0) -> tuple[int, int]:

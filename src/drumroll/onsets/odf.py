@@ -22,6 +22,7 @@ from itertools import pairwise
 import numpy as np
 
 from drumroll.onsets.dsp import LinearFilter, butter_sos
+from drumroll.onsets.peaks import MAD_TO_SIGMA
 
 
 @dataclass(frozen=True)
@@ -161,11 +162,12 @@ _NOISE_S, _NOISE_SEED = 4.0, 20261206
 
 
 @functools.lru_cache(maxsize=64)
-def noise_spread_db(params: OdfParams, sample_rate: int, pre: int, post: int
-                    ) -> tuple[float, ...]:
+def noise_spreads(params: OdfParams, sample_rate: int, pre: int, post: int
+                  ) -> tuple[tuple[float, ...], float]:
     """Each band's spread (a Gaussian sigma from the MAD, dB) of :func:`rise_ratio_db` on
-    white Gaussian noise: how much the detection function fluctuates where a band holds
-    nothing but noise.
+    white Gaussian noise, and the spread there of the bands' standardised rises summed
+    (:func:`~drumroll.onsets.candidates.combined_z` before its own standardisation): how
+    much the detection function fluctuates where a band holds nothing but noise.
 
     An energy summed over a window of a band-limited noise is a chi-square of about twice
     the band's time-bandwidth product in degrees of freedom, so the ratio of two such sums
@@ -174,39 +176,25 @@ def noise_spread_db(params: OdfParams, sample_rate: int, pre: int, post: int
     makes the ratio far steadier than that; standardised by its own spread, the noise it
     decays into reads as rises (damped 3 kHz tones at 40 dB: ten "candidates" within 60 ms
     after one of them, which the tracker followed as a roll of their own, splitting the true
-    roll and losing its two loudest impacts). Where a band is that steady, it is judged by
-    this spread instead (:data:`~drumroll.onsets.peaks.STEADY`). Measured once per setting,
-    on the same filters and windows (seeded: the same every run).
+    roll and losing its two loudest impacts). Where a band, or the sum, is that steady, it is
+    judged by this spread instead (:data:`~drumroll.onsets.peaks.STEADY`). Measured once per
+    setting, on the same filters and windows (seeded: the same every run), one value per
+    ``post // 2`` frames as the statistics take them, past the filters' start.
     """
-    return tuple(_noise_ratios(params, sample_rate, pre, post)[1])
-
-
-@functools.lru_cache(maxsize=64)
-def combined_noise_spread(params: OdfParams, sample_rate: int, pre: int, post: int) -> float:
-    """The spread (1.4826 MAD) on white noise of the bands' standardised rises summed
-    (:func:`~drumroll.onsets.candidates.combined_z` before its own standardisation), which
-    that sum is judged by where it is far steadier, for the reason :func:`noise_spread_db`
-    gives."""
-    ratios, spreads = _noise_ratios(params, sample_rate, pre, post)
-    total = sum(np.maximum((r - np.median(r)) / s, 0.0)
-                for r, s in zip(ratios, spreads, strict=True))
-    return float(1.4826 * np.median(np.abs(total - np.median(total))))
-
-
-def _noise_ratios(params: OdfParams, sample_rate: int, pre: int, post: int
-                  ) -> tuple[list[np.ndarray], list[float]]:
-    """Each band's :func:`rise_ratio_db` on seeded white noise (one value per ``post // 2``
-    frames, as the statistics take them, past the filters' start), and its spread (1.4826
-    MAD)."""
     rng = np.random.default_rng(_NOISE_SEED)
     hop = params.hop(sample_rate)
     x = rng.standard_normal(int(_NOISE_S * sample_rate))
-    stride = max(1, post // 2)
-    ratios, spreads = [], []
+    stride, settle = max(1, post // 2), 4 * (pre + post)
+    bands, total = [], 0.0
     for filt in band_filters(params, sample_rate):
         energy = frame_energy(filt(x), hop)
-        settle = 4 * (pre + post)
         ratio = rise_ratio_db(energy, pre, post, 0.0)[settle: energy.size - post: stride]
-        ratios.append(ratio)
-        spreads.append(float(1.4826 * np.median(np.abs(ratio - np.median(ratio)))))
-    return ratios, spreads
+        centre = np.median(ratio)
+        bands.append(_robust_sigma(ratio, centre))
+        total = total + np.maximum((ratio - centre) / bands[-1], 0.0)
+    return tuple(bands), _robust_sigma(total, np.median(total))
+
+
+def _robust_sigma(values: np.ndarray, centre: float) -> float:
+    """The MAD of ``values`` about ``centre``, as a Gaussian sigma."""
+    return float(MAD_TO_SIGMA * np.median(np.abs(values - centre)))
