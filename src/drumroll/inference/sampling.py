@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +21,7 @@ from scipy import optimize, special
 from drumroll.errors import OnsetsOutsidePriors
 from drumroll.inference.convergence import diagnose, integrated_time
 from drumroll.inference.coordinates import AtomGeometry, SamplerCoordinates
+from drumroll.inference.lockstep import lockstep
 from drumroll.inference.posterior import LogPosterior
 
 #: Draws ``(walkers, draws, ndim)`` → every reported quantity, ``(walkers, draws)`` each.
@@ -191,8 +193,12 @@ def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 
     spread = np.std(z, axis=0)
     spread = np.where(spread > 0, spread, 1.0)
     best, best_value = z[np.argmax(density)], float(np.max(density))
-    for start in z[np.argsort(density)[::-1][:n_starts]]:
-        point, value = climb(target, start, spread)
+    starts = z[np.argsort(density)[::-1][:n_starts]]
+    # The climbs side by side, their calls of the target batched (inference.lockstep: the
+    # same points and values as one climb after another, for about 3/4 of the time).
+    climbs = lockstep(target, [partial(climb, start=start, spread=spread)
+                               for start in starts])
+    for point, value in climbs:
         if value > best_value:
             best, best_value = point, value
     return best
