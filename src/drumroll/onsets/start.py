@@ -433,7 +433,12 @@ def ring_alignments(roll: Roll, ex: Excerpt) -> tuple[np.ndarray, np.ndarray, in
         level_j = float(target[before:].max())
         if not (level0 > 0 and level_j > 0):
             continue
-        seen = np.log(first + ring * level0 / level_j)
+        seen_power = first + ring * level0 / level_j
+        if not (np.all(target > 0) and np.all(seen_power > 0)):
+            # Digital silence in a bin (a file whose noise lies under its last bit, a phone's
+            # noise gate): the logs compared here do not exist, so this bounce aligns nothing.
+            continue
+        seen = np.log(seen_power)
         resid = seen - np.log(target)[None, :]
         resid -= resid.mean(axis=1, keepdims=True)  # the level difference, fitted
         ssr = np.maximum(np.sum(resid**2, axis=1), 1e-300)
