@@ -25,6 +25,7 @@ from drumroll.inference.missed_impacts import (
     _mixture_draws,
     laplace,
     missed_note,
+    missed_warning,
     needs_fit,
     renumbering,
     screen,
@@ -317,3 +318,22 @@ def test_t0_window_holds_impact_0_of_a_roll_numbered_from_a_later_impact(
         assert (low, high) == pytest.approx((times[0] - 0.5, times[0] + 0.5))
     if first_flight * missed < 0.2:
         assert high - low == pytest.approx(1.0)
+
+
+def test_a_numbering_the_evidences_reject_is_not_kept():
+    """The fitted numbering clearly rejected (P ≤ 1 − CLEARLY) while no other is clearly
+    preferred, the rest spread over two: the likeliest is fitted instead. A roll cut off
+    after its first impact gave P = (3e-5, 0.93, 0.07), and the fit numbered from impact 0
+    put α 7 sd from the truth; numbered from impact 1, 0.3 sd."""
+    assert renumbering((3e-5, 0.93, 0.07)) == 1
+    assert renumbering((0.01, 0.3, 0.69)) == 2
+    assert renumbering({STRAY: 0.5, 0: 0.04, 1: 0.46}) == STRAY
+    assert renumbering((0.06, 0.6, 0.34)) is None  # not rejected: kept, with a warning
+    assert renumbering((0.04, math.nan, 0.0), numbered_from=1) is None  # its P unknown
+
+
+def test_the_warning_names_the_likeliest_other_numbering():
+    warning = missed_warning("pendulum", (0.3, 0.68, 0.02), numbered_from=1)
+    assert "P(1 missed) = 0.68, P(0 missed) = 0.3" in warning
+    assert "assumes 1 was missed" in warning
+    assert missed_warning("pendulum", (0.97, 0.03, 0.0)) is None
