@@ -186,19 +186,90 @@ def _best_first(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, lev: np.ndarray
     """The rolls of the candidates ``[lo, hi)``, best first, each with the candidates set
     aside as its sound (:func:`_span`)."""
     found: list[tuple[Track, slice]] = []
-    todo = [(lo, hi)]
+    todo = [np.arange(lo, hi)]
     while todo:
-        a, b = todo.pop()
-        if b - a < 2:
+        idx = todo.pop()
+        if idx.size < 2:
             continue
-        path, bounce, score = _Beam(t[a:b], z[a:b], sigma[a:b], lev[a:b], p).run()
+        path, bounce, score = _Beam(t[idx], z[idx], sigma[idx], lev[idx], p).run()
         if len(path) < 2 or score <= 0:
             continue
-        chosen = a + np.asarray(path)
-        span = _span(t, chosen, a, b)
+        chosen = idx[np.asarray(path)]
+        pulse = in_steady_pulse(t[chosen], bounce, sigma[chosen], p)
+        if pulse.any():
+            # A steady pulse, no bouncer's (a metronome, a ticking clock), all of the path
+            # or a stretch of it that led into a roll: its sounds are set aside as unrelated
+            # to any roll, and the others searched again (as a roll's span, it would have set
+            # aside every roll it runs through).
+            todo.append(np.setdiff1d(idx, chosen[pulse], assume_unique=True))
+            continue
+        span = _span(t, chosen, int(idx[0]), int(idx[-1]) + 1)
         found.append((Track(chosen, bounce, score), span))
-        todo += [(a, span.start), (span.stop, b)]
+        todo += [idx[idx < span.start], idx[idx >= span.stop]]
     return found
+
+
+#: Log odds at which onsets are taken for a steady pulse rather than a bouncer
+#: (:func:`pulse_log_odds`): "strong" on Kass & Raftery's scale, as elsewhere in the extractor.
+PULSE_ODDS = 3.0
+
+
+def in_steady_pulse(t: np.ndarray, bounce: np.ndarray, sigma: np.ndarray, p: TrackParams
+                    ) -> np.ndarray:
+    """Which onsets of a path (times ``t``, numbers ``bounce``) lie in a steady pulse: every
+    three flights in a row (the fewest that a roll has, ``min_onsets`` − 1), taken alone, a
+    pulse with log odds of at least :data:`PULSE_ODDS` (:func:`pulse_log_odds`). A bouncer's
+    flights shrink at every impact, so no stretch of a roll is a pulse, while a path may
+    follow a pulse into a roll (the running ratio, at 1 along the pulse, turns to the
+    roll's)."""
+    out = np.zeros(t.size, bool)
+    flights = max(p.min_onsets - 1, 3)
+    for i in range(t.size - flights):
+        window = slice(i, i + flights + 1)
+        if (np.all(np.diff(bounce[window]) == 1)
+                and pulse_log_odds(t[window], bounce[window], sigma[window], p) >= PULSE_ODDS):
+            out[window] = True
+    return out
+
+
+def pulse_log_odds(t: np.ndarray, bounce: np.ndarray, sigma: np.ndarray, p: TrackParams
+                   ) -> float:
+    """ln of the Bayes factor "a steady pulse" against "a bouncer" for a path's onsets ``t``
+    numbered ``bounce``, from the slope s of its log flights against their bounce numbers.
+
+    A free bouncer loses energy at every impact: its flights shrink, ln T_k = c + s k with
+    s = ln(ratio) < 0, and nothing in its physics prefers one ratio to another, so s is
+    uniform over [ln(min_ratio), 0]. A pulse (a metronome, a clock, any periodic sound)
+    repeats its interval: s = 0 exactly. The slope's estimate is Gaussian about s with the
+    standard error of a least-squares line through the log flights (their scatter about it,
+    at least what the onsets' timing gives). A precisely flat path is a pulse: "bouncer"
+    spreads its prior over slopes the data rule out (the Occam factor). A path that shrinks,
+    or is too short or too rough to tell, is not: of 200 four-onset stretches of rolls with a
+    ratio of 0.98 and onsets timed to 1 ms, 1 % reach :data:`PULSE_ODDS` (0.97: none; 0.99,
+    which no free bouncer reaches: 31 %); of rolls of six or more onsets, none.
+    """
+    steps = np.flatnonzero(np.diff(bounce) == 1)
+    if steps.size < 3:
+        return -math.inf
+    flights = t[steps + 1] - t[steps]
+    if np.any(flights <= 0):
+        return -math.inf
+    y, k = np.log(flights), bounce[steps + 1].astype(float)
+    k_centred = k - k.mean()
+    sxx = float(k_centred @ k_centred)
+    slope = float(k_centred @ (y - y.mean())) / sxx
+    resid = y - y.mean() - slope * k_centred
+    timing = float(np.mean((sigma[steps + 1] ** 2 + sigma[steps] ** 2) / flights**2))
+    scatter = max(float(resid @ resid) / (y.size - 2), timing, 1e-12)
+    se = math.sqrt(scatter / sxx)
+    lowest = math.log(p.min_ratio)
+    bouncer = (_normal_cdf(-slope / se) - _normal_cdf((lowest - slope) / se)) / -lowest
+    pulse = math.exp(-0.5 * (slope / se) ** 2) / (math.sqrt(2.0 * math.pi) * se)
+    return math.log(max(pulse, 1e-300)) - math.log(max(bouncer, 1e-300))
+
+
+def _normal_cdf(x: float) -> float:
+    return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
 
 #: Share of a flight, after its first onset, where candidates are that onset's own echoes

@@ -33,7 +33,9 @@ from drumroll.onsets.tracking import (
     TrackParams,
     _step_ratio,
     explain,
+    in_steady_pulse,
     level_db,
+    pulse_log_odds,
     stretches,
     track,
 )
@@ -148,6 +150,37 @@ def test_two_rolls_far_apart_are_two_tracks_best_first():
     np.testing.assert_allclose(c.time_s[tracks[1].index], first)
     for tr in tracks:
         np.testing.assert_array_equal(tr.bounce, np.arange(tr.index.size))
+
+
+@pytest.mark.parametrize("period", [0.25, 0.5])
+def test_a_steady_pulse_through_a_roll_is_no_roll_and_hides_none(period):
+    """A metronome ticking through a roll, as loud as its bounces: the ticks' steady
+    intervals are no bouncer's (its flights shrink at every impact), whether a path follows
+    them alone or into the roll. The roll is found whole, and no roll is made of ticks. (At
+    a tick every 0.25 s the best path once followed seven ticks into the roll, and the roll's
+    span set aside the rest of it: 0 of 16 impacts found.)"""
+    roll = geometric_times(16, t0=1.5, t_b=0.3, alpha=0.88)
+    ticks = np.arange(0.05, roll[-1] + 1.0, period)
+    ticks = ticks[np.min(np.abs(ticks[:, None] - roll[None, :]), axis=1) > 0.01]
+    c = candidates(np.r_[roll, ticks], level=np.ones(roll.size + ticks.size))
+    tracks = [tr for tr in track(c) if tr.index.size >= TrackParams().min_onsets]
+    assert len(tracks) == 1  # (three ticks, two equal flights, are too few to tell)
+    np.testing.assert_allclose(c.time_s[tracks[0].index], roll)
+
+
+def test_pulse_odds_tell_a_steady_pulse_from_a_bouncer():
+    """Flat log flights measured precisely are a pulse; shrinking ones, or flights too rough
+    to tell, are not; so is no stretch of a roll with a ratio of 0.95."""
+    p = TrackParams()
+    n = np.arange(8)
+    sigma = np.full(8, 1e-4)
+    assert pulse_log_odds(0.5 * n, n, sigma, p) > 3.0
+    assert pulse_log_odds(geometric_times(8, alpha=0.95), n, sigma, p) < -3.0
+    rough = np.r_[0.0, np.cumsum([0.5, 0.6, 0.45, 0.55])]  # four flights, ±10 %
+    assert pulse_log_odds(rough, n[:5], np.full(5, 5e-3), p) < 3.0
+    assert pulse_log_odds(0.5 * n[:3], n[:3], sigma[:3], p) == -np.inf  # two flights: no test
+    assert not in_steady_pulse(geometric_times(30, alpha=0.95), np.arange(30), np.full(30, 1e-4),
+                               p).any()
 
 
 def test_no_candidates_no_tracks():
