@@ -30,7 +30,13 @@ def mass_properties_squared(shape: str, length, tip, radius, pivot) -> tuple:
     cylinder = 3.0 * l1 * (0.25 * (r**2 + l1**2 / 3.0) + (0.5 * l1 - d) ** 2)
     cone = l2 * (3.0 / 80.0 * (4.0 * r**2 + l2**2) + (l1 - d + 0.25 * l2) ** 2)
     centre_of_mass = (6.0 * l1**2 + l2 * (4.0 * l1 + l2)) / (4.0 * weight)
-    return l1 + l2, centre_of_mass, (cylinder + cone) / weight
+    return overall_length(shape, l1, l2), centre_of_mass, (cylinder + cone) / weight
+
+
+def overall_length(shape: str, length, tip):
+    """The stick's whole length L: the rod's, or the cylinder's l1 and the cone's l2 (the
+    first of :func:`mass_properties_squared`'s values, for a caller that needs no more)."""
+    return length if shape == "thin-rod" else length + tip
 
 
 def thin_rod(length: ArrayLike, pivot: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:

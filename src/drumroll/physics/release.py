@@ -20,7 +20,12 @@ from drumroll.physics.bounces import (
     Bounces,
     first_failure,
 )
-from drumroll.physics.geometry import STICK_SHAPES, StickGeometry, mass_properties_squared
+from drumroll.physics.geometry import (
+    STICK_SHAPES,
+    StickGeometry,
+    mass_properties_squared,
+    overall_length,
+)
 
 #: Standard gravity (m/s²), used unless the config gives another value.
 STANDARD_GRAVITY = 9.81
@@ -126,8 +131,7 @@ def rim_strikes_first(shape: str, length: ArrayLike, tip: ArrayLike, radius: Arr
     for a stick pivoted at ``pivot`` at ``height``: False wherever the set-up is otherwise
     impossible (its own reason applies there)."""
     with np.errstate(all="ignore"):
-        total_length, _, _ = mass_properties_squared(shape, length, tip, radius, pivot)
-        arm = total_length - np.asarray(pivot, float)
+        arm = overall_length(shape, length, tip) - np.asarray(pivot, float)
         reachable = (np.asarray(height, float) > 0) & (np.asarray(height, float) < arm)
         return reachable & ~tip_strikes_first(shape, tip, radius, height, arm)
 
