@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from drumroll.calibration.roll import RollSimulator  # noqa: E402
 from drumroll.config import load_config  # noqa: E402
-from foreign_rolls import _sound  # noqa: E402  (the tests' own sound makers)
+from foreign_rolls import impact_sound  # noqa: E402  (the tests' own sound makers)
 
 RATE = 44100
 CONFIG = ROOT / "data" / "table2_h80.toml"
@@ -79,7 +79,7 @@ def make_roll(seed: int, simulator: RollSimulator, rooms: list[np.ndarray],
     for k, start in enumerate(times):
         first = int(np.ceil(start * RATE))
         t = (first - start * RATE + np.arange(length)) / RATE
-        sound = hit[:length] if kind == "sample" else _sound(kind, frequency, t, rng)
+        sound = hit[:length] if kind == "sample" else impact_sound(kind, frequency, t, rng)
         stop = min(first + sound.size, x.size)
         x[first:stop] += speeds[k] ** 1.5 * sound[: stop - first]
     delay = 0.0

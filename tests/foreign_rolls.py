@@ -38,7 +38,8 @@ POWER_LAW_PRIORS = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
 DECAY_S, ATTACK_S, LEAD_S, TAIL_S, JITTER_S = 0.02, 1e-3, 0.5, 0.6, 1e-4
 
 
-def _sound(shape: str, frequency: float, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def impact_sound(shape: str, frequency: float, t: np.ndarray, rng: np.random.Generator
+                 ) -> np.ndarray:
     """One impact's sound at times ``t`` (s) after its start."""
     decay = np.exp(-t / DECAY_S)
     if shape == "sine":
@@ -69,7 +70,7 @@ def foreign_roll(rng: np.random.Generator, shape: str, frequency: float, snr_db:
     for k, start in enumerate(times):
         first = int(np.ceil(start * rate))
         t = (first - start * rate + np.arange(length)) / rate  # from the sound's start
-        sound = alpha**k * _sound(shape, frequency, t, rng)
+        sound = alpha**k * impact_sound(shape, frequency, t, rng)
         stop = min(first + length, x.size)
         x[first:stop] += sound[: stop - first]
     head = int(np.ceil(times[0] * rate))
