@@ -39,13 +39,15 @@ from drumroll.inference.missed_impacts import (
     EVIDENCE_ONLY_ESS,
     STRAY,
     Numberings,
+    importance_sample,
     missed_note,
     missed_probabilities,
     missed_warning,
+    mixed_numberings,
     needs_fit,
+    numbering_average,
     renumbering,
     screen,
-    screened_evidence,
     shifted,
     stray_log_density,
     stray_note,
@@ -609,6 +611,30 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
             numbered_from, first_pass = renumber.numbered_from, False
 
 
+#: Draws taken from a numbering's importance sample for the average over the numberings.
+RESAMPLED = 4000
+
+
+def _variables(draws: Draws) -> dict[str, np.ndarray]:
+    """A fit's posterior draws by quantity key (every draw)."""
+    return {name: np.asarray(values) for name, values in draws.posterior.data_vars.items()}
+
+
+def _sampled_draws(log_posteriors: dict[int, LogPosterior], settings: EstimateSettings,
+                   seed: int, workers: int) -> dict[int, dict[str, np.ndarray]]:
+    """Each numbering's draws of the main model (numbering → quantity key → array), sampled
+    as the main fit is (``workers`` processes side by side)."""
+    def variables(missed: int, chain: Chain) -> dict[str, np.ndarray]:
+        return parameter_draws(log_posteriors[missed], chain.samples,
+                               np.random.default_rng(seed))[0]
+
+    if workers == 1 or len(log_posteriors) == 1:
+        return {m: variables(m, _fit(lp, settings, seed)[0]) for m, lp in log_posteriors.items()}
+    with process_pool(min(workers, len(log_posteriors))) as pool:
+        futures = {m: pool.submit(_fit, lp, settings, seed) for m, lp in log_posteriors.items()}
+        return {m: variables(m, future.result()[0]) for m, future in futures.items()}
+
+
 def _given_an_impact(probabilities: tuple[float, ...]) -> tuple[float, ...]:
     """P(m impacts missed) renormalised over m = 0, 1, …: given that the first onset is an
     impact of the roll (the rest of the probability is its being a stray sound)."""
@@ -754,7 +780,10 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                 between()
                 begun += time.perf_counter() - started_between  # not the screens' time
             found = screen(log_posterior, seeds[config.model])
-            evidence = screened_evidence(log_posterior, found, seeds[config.model])
+            sample = importance_sample(log_posterior, found, seeds[config.model])
+            evidence = None if sample is None else sample.evidence
+            if sample is not None:
+                numberings.samples[missed] = sample
             extra = own_density.get(missed, 0.0)
             screens[missed] = replace(found, log_z=found.log_z + extra)
             screen_evidences[missed] = (None if evidence is None
@@ -797,7 +826,11 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         return wanted
 
     def keep_evidence(missed: int, output: tuple) -> None:
-        evidence = output[1]
+        chain, evidence = output[0], output[1]
+        # Its draws too, for the average over the numberings (the same generator as the
+        # main fit's draws).
+        numberings.draws[missed] = parameter_draws(
+            renumbered[missed], chain.samples, np.random.default_rng(seeds[config.model]))[0]
         numberings.log_z[missed] = (-math.inf if evidence is None
                                     else evidence.log_z + own_density.get(missed, 0.0))
 
@@ -822,6 +855,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         likeliest = renumbering(found, numbered_from) if found else None
         if likeliest is not None:
             numberings.log_z[numbered_from] = fits[config.model].evidence.log_z
+            numberings.draws[numbered_from] = _variables(every_draw[config.model])
             raise _Renumber(likeliest, f"P = {found[likeliest]:.3g} against "
                                        f"{found[numbered_from]:.2g}", found[likeliest])
 
@@ -907,6 +941,35 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     found = probabilities()
     missed_first = (tuple(found[m] for m in range(highest + 1)) if found and numbered else ())
     stray_first = found.get(STRAY, fitted.dropped_stray)
+    numbering_averaged = None
+    mixed = mixed_numberings(_given_an_impact(missed_first)) if missed_first else {}
+    if mixed:
+        # No numbering clearly preferred: the honest posterior mixes them. Those without a
+        # fit of their own took their evidence from their screen's importance sample, which
+        # passed its diagnostic: resampled, it is their posterior; any other is sampled now.
+        started = time.perf_counter()
+        resampled = np.random.default_rng(seeds[config.model])
+        for m in mixed:
+            sample = numberings.samples.get(m)
+            if (m != numbered_from and m not in numberings.draws and sample is not None
+                    and sample.evidence.trusted):
+                numberings.draws[m] = parameter_draws(
+                    LogPosterior.build(config, config.model, shifted(fitted.data, m),
+                                       settings.noise, settings.nu),
+                    sample.resampled(RESAMPLED, resampled)[None], resampled)[0]
+        unsampled = {m: LogPosterior.build(config, config.model, shifted(fitted.data, m),
+                                           settings.noise, settings.nu)
+                     for m in mixed if m != numbered_from and m not in numberings.draws}
+        if unsampled:
+            say(f"{config.model}: sampling the first onset numbered as impact "
+                f"{', '.join(map(str, unsampled))}, for the average over the numberings")
+            numberings.draws.update(_sampled_draws(
+                unsampled, replace(evidence_settings, evidence="none"), seeds[config.model],
+                workers))
+        numbering_averaged = numbering_average(
+            {**numberings.draws, numbered_from: _variables(every_draw[config.model])}, mixed,
+            numbered_from, settings.hdi_prob, seed=settings.sampler.seed)
+        seconds["numbering_average"] = time.perf_counter() - started
     stray_warned = stray_warning(config.model, stray_first, fitted.dropped_stray is not None)
     model_diagnostics = {}
     evidence_entries = {}
@@ -947,6 +1010,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         fixed={BY_NAME[name].key: BY_NAME[name].to_user(prior.value)
                for name, prior in main.log_posterior.space.priors.items() if prior.is_fixed},
         comparison=rows, preferred=preferred, verdict=verdict, model_average=averaged,
+        numbering_average=numbering_averaged,
         diagnostics=model_diagnostics,
         evidence=evidence_entries, loo={m: loos[m].summary() for m in fits},
         onsets=tuple(Onset(float(t), float(s), int(k)) for t, s, k in zip(

@@ -8,7 +8,10 @@ from __future__ import annotations
 import csv
 import json
 import math
+from pathlib import Path
 
+import arviz as az
+import numpy as np
 import pytest
 
 from drumroll.cli.main import main
@@ -185,3 +188,59 @@ def test_a_tap_taken_for_the_first_bounce_is_dropped(tmp_path, model):
     t0 = summary["parameters"]["t0_s"]
     assert abs(t0["mean"] - times[0]) < max(3 * t0["sd"], 1e-4)
 
+
+
+@pytest.mark.slow
+def test_where_no_numbering_is_clearly_preferred_the_numberings_are_averaged(tmp_path):
+    """table2_h80 less its first onset, numbered from impact 0, under geometry priors three
+    times wider (pivot ± 6 mm, height ± 10 mm): the onsets cannot tell how many impacts came
+    before them. The estimate's α and t_B over the numberings are checked against a
+    reference made without the average: the roll fitted once per numbering, imposed by the
+    file (``missed_first = 0``), each fit's draws mixed by the estimate's probabilities."""
+    assert main(["onsets", str(DATA / "table2_h80.flac"), "-o", str(tmp_path / "all.csv"),
+                 "-q"]) == 0
+    rows = list(csv.DictReader((tmp_path / "all.csv").open()))
+    text = (DATA / "table2_h80.toml").read_text().replace(
+        'compare = ["small-angle", "powerlaw"]', "compare = []").replace(
+        "sigma = 2 }", "sigma = 6 }").replace("mu = 80, sigma = 3 }", "mu = 80, sigma = 10 }")
+    (tmp_path / "wide.toml").write_text(text)
+    (tmp_path / "imposed.toml").write_text(
+        text.replace("[likelihood]\n", "[likelihood]\nmissed_first = 0\n"))
+
+    def run(first: int, config: str) -> tuple[dict, Path]:
+        name = f"from{first}-{config}"
+        with (tmp_path / f"{name}.csv").open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["time_s", "sigma_s", "bounce"])
+            writer.writerows([row["time_s"], row["sigma_s"], int(row["bounce"]) - 1 + first]
+                             for row in rows[1:])
+        out = tmp_path / name
+        assert main(["estimate", str(tmp_path / f"{name}.csv"), "--prior",
+                     str(tmp_path / f"{config}.toml"), "-o", str(out), "-q"]) == 0
+        return json.loads((out / "summary.json").read_text()), out
+
+    summary, _ = run(0, "wide")
+    averaged = summary["numbering_average"]
+    probabilities = summary["missed_first_impacts"]
+    assert max(probabilities) < 0.95  # the case meant
+    assert averaged["fitted"] == 0
+    weights = {int(m): w for m, w in averaged["probabilities"].items()}
+    kept = {m: p for m, p in enumerate(probabilities) if p >= 0.01}
+    assert weights == pytest.approx({m: p / sum(kept.values()) for m, p in kept.items()})
+    # The reference mixture, from each numbering's own fit (stored draws of posterior.nc).
+    draws = {}
+    for first in weights:
+        fit, out = run(first, "imposed")
+        assert fit["onsets"][0]["bounce"] == first and fit["missed_first_impacts"] == []
+        posterior = az.from_netcdf(out / "posterior.nc").posterior
+        draws[first] = {key: np.asarray(posterior[key]).ravel() for key in ("alpha", "t_b")}
+    for key in ("alpha", "t_b"):
+        mean = sum(w * draws[m][key].mean() for m, w in weights.items())
+        second = sum(w * (draws[m][key].var() + draws[m][key].mean() ** 2)
+                     for m, w in weights.items())
+        sd = math.sqrt(second - mean**2)
+        got = averaged["parameters"][key]
+        assert got["mean"] == pytest.approx(mean, abs=0.1 * sd), key
+        assert got["sd"] == pytest.approx(sd, rel=0.1), key
+        # the numbering fitted alone is narrower than the mixture
+        assert summary["parameters"][key]["sd"] < got["sd"], key

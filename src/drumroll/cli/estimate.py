@@ -13,7 +13,11 @@ from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
 from drumroll.onsets import ONSET_FILE_SUFFIXES
 from drumroll.quantities import QUANTITIES
-from drumroll.reporting.numbers import format_value_error, model_average_text
+from drumroll.reporting.numbers import (
+    format_value_error,
+    model_average_text,
+    numbering_average_text,
+)
 
 if TYPE_CHECKING:
     from drumroll.pipeline import Result
@@ -159,6 +163,9 @@ def terminal_table(result: Result) -> str:
         lines.append(f"{name:<22} {mean_sd:>22} {interval:>24} {r_hat:>7} {ess:>6}")
     lines += [f"{name} is 0 (absent) with probability {p.probability_zero:.2f}"
               for name, p in parameters.items() if p.probability_zero is not None]
+    over_numberings = numbering_average_text(summary.numbering_average)
+    if over_numberings:  # the table holds for one numbering; this for all of them
+        lines.append(f"over the first onset's numberings: {over_numberings}")
     lines += [f"warning: {warning}" for warning in summary.warnings if warning != misfit]
     lines.append("")
     preferred = summary.preferred

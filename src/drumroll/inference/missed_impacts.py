@@ -34,6 +34,11 @@ probability. The first onset's own numbering is screened too (:class:`Numberings
 roll that clearly began late is renumbered on the screens alone, before its misnumbered fits
 end (table2_h80 with two impacts cut off: 6 s instead of 57).
 
+Where none is clearly preferred, the main model's every quantity is also given mixed over
+the numberings, p(θ | onsets) = Σ_m P(m) p(θ | onsets, m) (:func:`numbering_average`): each
+numbering's draws from its own fit, or from the importance sample its evidence came from,
+resampled by its weights (:class:`ImportanceSample`).
+
 One more numbering is weighed under every model, the power law's included: :data:`STRAY`,
 "the first onset is no impact of the roll" (a tap before it that the extractor took for the
 first bounce), whose evidence is that of the onsets after it times the first onset's
@@ -47,6 +52,7 @@ import itertools
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,6 +63,7 @@ from drumroll.inference.coordinates import SamplerCoordinates
 from drumroll.inference.evidence import IMPORTANCE_DRAWS, Evidence, weighted_evidence
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
+from drumroll.inference.results import NumberingAverage
 from drumroll.inference.sampling import SamplerTarget, climb, find_start
 from drumroll.onsets.tracking import TrackParams
 from drumroll.stats import student_t_log_norm, student_t_logpdf_fixed
@@ -73,6 +80,10 @@ MAX_MISSED = 2
 EVIDENCE_ONLY_ESS = 300
 #: P(m = 0) below this: "0" is not clearly preferred, and the user is told.
 CLEARLY = 0.95
+#: The least probability of a numbering that enters the average over the numberings
+#: (:func:`numbering_average`): those below it move a 90 % interval by less than their
+#: share of its mass, and each costs a fit where it has none.
+MIXED = 0.01
 #: A numbering whose screened ln Z falls this far below the main fit's (m = 0) is not fitted:
 #: P(m) < e^(−SCREEN_NATS) ≈ 3e-7. Against the fitted evidences of 45 numberings of the five
 #: bundled stick rolls (each whole and with one or two onsets cut off), the screen erred by at
@@ -226,9 +237,9 @@ def missed_warning(model: str, probabilities: Sequence[float], numbered_from: in
     assumed = {0: "none was", 1: "1 was"}.get(numbered_from, f"{numbered_from} were")
     return (f"{model}: the first onset may not be impact {numbered_from} of the roll: "
             f"P({numbered_from} missed) = {probabilities[numbered_from]:.2g}, P({other} "
-            f"missed) = {probabilities[other]:.2g}, while every number given assumes "
-            f"{assumed} missed; check the recording's start (onsets.png), and each "
-            "numbering's probability in the notes")
+            f"missed) = {probabilities[other]:.2g}, while the fits and figures assume "
+            f"{assumed} missed (the numbers over the numberings mix them); check the "
+            "recording's start (onsets.png), and each numbering's probability in the notes")
 
 
 def renumbering(probabilities: Sequence[float] | Mapping[int, float], numbered_from: int = 0
@@ -261,6 +272,47 @@ def renumbering(probabilities: Sequence[float] | Mapping[int, float], numbered_f
     return likeliest if found[likeliest] >= CLEARLY or rejected else None
 
 
+def mixed_numberings(probabilities: Sequence[float]) -> dict[int, float]:
+    """The numberings the average over numberings mixes: m → its weight, for each m of
+    probability at least :data:`MIXED` (``probabilities`` given that the first onset is an
+    impact), renormalised; empty where only one has that much (it is the posterior)."""
+    kept = {m: float(p) for m, p in enumerate(probabilities) if p >= MIXED}
+    total = sum(kept.values())
+    return {m: p / total for m, p in kept.items()} if len(kept) > 1 else {}
+
+
+def numbering_average(posteriors: Mapping[int, Mapping[str, Any]],
+                      weights: Mapping[int, float], fitted: int, prob: float = 0.9,
+                      seed: int = 0) -> NumberingAverage:
+    """The main model's every quantity under the mixture of its numberings' posteriors.
+
+    Given the onsets, the first onset is impact m with probability P(m), and the posterior
+    of any quantity θ is p(θ | onsets) = Σ_m P(m) p(θ | onsets, m): where no numbering is
+    clearly preferred, one numbering's fit gives p(θ | onsets, m) alone, whose interval holds
+    the truth only if m is right (a foreign roll with P(1) = 0.92 kept numbered from impact
+    0 put α 7.5 sd from the truth).
+
+    Parameters
+    ----------
+    posteriors
+        Each numbering's draws of the main model by quantity key (numbering → name → array);
+        those in ``weights`` are mixed.
+    weights
+        From :func:`mixed_numberings`.
+    fitted
+        The numbering the fits and figures use.
+    prob, seed
+        Mass of the highest-density intervals; seed of the mixture's draws.
+    """
+    from drumroll.inference.model_average import mixture_summaries
+
+    names = list(posteriors[fitted])
+    return NumberingAverage(
+        fitted=fitted, probabilities={str(m): w for m, w in weights.items()},
+        parameters=mixture_summaries({m: posteriors[m] for m in weights}, weights, names,
+                                     prob, seed=seed))
+
+
 @dataclass
 class Numberings:
     """What an estimate knows of the first onset's numberings (m impacts missed → …), across
@@ -271,6 +323,10 @@ class Numberings:
     screen_evidences: dict[int, Evidence | None] = field(default_factory=dict)
     log_z: dict[int, float] = field(default_factory=dict)
     screened_out: set[int] = field(default_factory=set)
+    #: The main model's draws (quantity key → array) of each numbering with a fit of its own,
+    #: and the importance samples of those screened, for the average over the numberings.
+    draws: dict[int, dict[str, NDArray]] = field(default_factory=dict)
+    samples: dict[int, ImportanceSample] = field(default_factory=dict)
 
     def early_renumbering(self, numbered_from: int) -> int | None:
         """From the screens alone (before any fit is back): the numbering to fit instead of
@@ -466,9 +522,33 @@ def screen(log_posterior: LogPosterior, seed: int) -> Screen:
 
 def screened_evidence(log_posterior: LogPosterior, found: Screen, seed: int,
                       n: int = IMPORTANCE_DRAWS) -> Evidence | None:
-    """ln Z of a numbering by importance sampling from its screen, in place of a fit where
-    its own diagnostic trusts it (:attr:`Evidence.trusted`; None: no branch to draw from, or
-    one holding mass that cannot be drawn from).
+    """ln Z of a numbering by importance sampling from its screen (:func:`importance_sample`),
+    in place of a fit where its own diagnostic trusts it (:attr:`Evidence.trusted`; None: no
+    branch to draw from, or one holding mass that cannot be drawn from)."""
+    sample = importance_sample(log_posterior, found, seed, n)
+    return None if sample is None else sample.evidence
+
+
+@dataclass(frozen=True)
+class ImportanceSample:
+    """A numbering's importance sample from its screen: the draws as the model's parameters
+    x ``(n, ndim)``, their log weights ln p − ln q, and the evidence they give."""
+
+    x: NDArray
+    log_w: NDArray
+    evidence: Evidence
+
+    def resampled(self, n: int, rng: np.random.Generator) -> NDArray:
+        """``n`` draws of the posterior: the draws resampled in proportion to their weights
+        (as PSIS-LOO's draws are reweighted; the weights' ESS says how many are distinct)."""
+        w = np.exp(self.log_w - np.max(self.log_w))
+        return self.x[rng.choice(self.x.shape[0], size=n, p=w / w.sum())]
+
+
+def importance_sample(log_posterior: LogPosterior, found: Screen, seed: int,
+                      n: int = IMPORTANCE_DRAWS) -> ImportanceSample | None:
+    """A numbering's posterior and ln Z by importance sampling from its screen (None: no
+    branch to draw from, or one holding mass that cannot be drawn from).
 
     The proposal is the screen's mixture in the sampler coordinates: each branch with a
     Laplace fit, weighed by its estimate of Z, as a multivariate Student-t
@@ -522,8 +602,10 @@ def screened_evidence(log_posterior: LogPosterior, found: Screen, seed: int,
         # the first draws missed stays in the proposal.
         shares = np.maximum(totals / totals.sum(), MIN_SHARE)
         shares = shares / shares.sum()
-    return weighted_evidence(_weighted_draws(target, drawn, frees, means, covariances, shares,
-                                             columns, widths, n, rng)[2])
+    z, _, log_w = _weighted_draws(target, drawn, frees, means, covariances, shares, columns,
+                                  widths, n, rng)
+    return ImportanceSample(target.coordinates.to_parameters(z)[0], log_w,
+                            weighted_evidence(log_w))
 
 
 def _weighted_draws(target: SamplerTarget, branches: list[Branch], frees: list[list[int]],

@@ -14,7 +14,8 @@ are those of the weighted mixture of the models' posterior draws.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -77,26 +78,47 @@ def model_average(posteriors: Mapping[str, object], weights: Mapping[str, float]
         Size of the mixture's sample (drawn from each model in proportion to its weight,
         deterministically for a seed).
     """
+    return ModelAverage(weights={m: float(w) for m, w in weights.items()},
+                        parameters=mixture_summaries(posteriors, weights, AVERAGED, prob,
+                                                     n_draws, seed))
+
+
+def mixture_summaries(posteriors: Mapping[Any, Mapping[str, Any]], weights: Mapping[Any, float],
+                      names: Iterable[str], prob: float = 0.9, n_draws: int = 20_000,
+                      seed: int = 0) -> dict[str, ParameterSummary]:
+    """Summaries of the quantities ``names`` under the mixture of ``posteriors`` weighted by
+    ``weights`` (keyed alike): mean, sd, median and the highest-density interval of mass
+    ``prob`` of ``n_draws`` draws, drawn from each component in proportion to its weight
+    (deterministically for a ``seed``). R-hat and ESS are not defined for a mixture (None).
+    A quantity some component lacks is left out.
+
+    Parameters
+    ----------
+    posteriors
+        Each component's draws by quantity name (an ArviZ ``posterior`` group, or a mapping
+        of arrays).
+    """
     rng = np.random.default_rng(seed)
     counts = _counts(weights, n_draws)
-    parameters = {}
-    for name in AVERAGED:
+    summaries = {}
+    for name in names:
+        if any(name not in posteriors[key] for key in counts):
+            continue
         parts = []
-        for model, count in counts.items():
-            draws = np.asarray(posteriors[model][name].values, float).ravel()
+        for key, count in counts.items():
+            draws = np.asarray(posteriors[key][name], float).ravel()
             draws = draws[np.isfinite(draws)]
             if count and draws.size:
                 parts.append(rng.choice(draws, size=count))
-        mixture = np.sort(np.concatenate(parts)) if parts else np.zeros(0)
-        if mixture.size < 2:
+        mixed = np.sort(np.concatenate(parts)) if parts else np.zeros(0)
+        if mixed.size < 2:
             continue
-        low, high = _hdi(mixture, prob)
-        parameters[name] = ParameterSummary(
-            mean=json_number(mixture.mean()), sd=json_number(mixture.std(ddof=1)),
-            median=json_number(np.median(mixture)), hdi_low=json_number(low),
+        low, high = _hdi(mixed, prob)
+        summaries[name] = ParameterSummary(
+            mean=json_number(mixed.mean()), sd=json_number(mixed.std(ddof=1)),
+            median=json_number(np.median(mixed)), hdi_low=json_number(low),
             hdi_high=json_number(high), hdi_prob=prob)
-    return ModelAverage(weights={m: float(w) for m, w in weights.items()},
-                        parameters=parameters)
+    return summaries
 
 
 def _counts(weights: Mapping[str, float], total: int) -> dict[str, int]:

@@ -192,6 +192,25 @@ class ModelAverage(Record):
 
 
 @dataclass(frozen=True)
+class NumberingAverage(Record):
+    """The main model's quantities averaged over the first onset's numberings
+    (:func:`~drumroll.inference.missed_impacts.numbering_average`): where no numbering is
+    clearly preferred, every number of one numbering's fit holds only if that numbering is
+    the right one, and the honest posterior is the mixture of the numberings' posteriors
+    weighted by their probabilities. ``probabilities`` maps impacts missed ("0", "1", …) to
+    the weight of that numbering in the mixture (those of probability 0.01 or more, given
+    that the first onset is an impact, renormalised); ``fitted`` is the numbering the fits
+    and figures use. Intervals are highest-density intervals of the mixture (R-hat and ESS:
+    None)."""
+
+    fitted: int = 0
+    probabilities: dict[str, float] = field(default_factory=dict)
+    parameters: dict[str, ParameterSummary] = field(default_factory=dict)
+    nested: ClassVar[dict[str, tuple[type[Record], str]]] = {
+        "parameters": (ParameterSummary, "dict")}
+
+
+@dataclass(frozen=True)
 class FlightSeries(Record):
     """One model's flights T_1 … T_K (s): posterior median and central band (probability
     ``prob``) of the noise-free flight times, entry k − 1 being flight k."""
@@ -330,6 +349,9 @@ class Summary(Record):
         where it was not weighed (no evidence, too few onsets).
     parameters
         The main model's posterior summaries, by quantity key (those of ``models[model]``).
+    numbering_average
+        The main model's quantities averaged over the first onset's numberings, where more
+        than one has a probability of 0.01 or more (:class:`NumberingAverage`); else None.
     models
         Every fitted model's summaries and flights, main model first.
     observed_flights
@@ -353,7 +375,8 @@ class Summary(Record):
         "observed_flights": (ObservedFlights, "one"), "comparison": (ComparisonRow, "tuple"),
         "diagnostics": (Diagnostics, "dict"), "evidence": (EvidenceSummary, "dict"),
         "loo": (LooSummary, "dict"), "onsets": (Onset, "tuple"),
-        "model_average": (ModelAverage, "one")}
+        "model_average": (ModelAverage, "one"),
+        "numbering_average": (NumberingAverage, "one")}
 
     model: str = ""
     n_onsets: int = 0
@@ -371,6 +394,7 @@ class Summary(Record):
     preferred: str | None = None
     verdict: str = ""
     model_average: ModelAverage | None = None
+    numbering_average: NumberingAverage | None = None
     diagnostics: dict[str, Diagnostics] = field(default_factory=dict)
     evidence: dict[str, EvidenceSummary] = field(default_factory=dict)
     loo: dict[str, LooSummary] = field(default_factory=dict)

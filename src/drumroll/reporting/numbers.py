@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from drumroll.reporting.document import Content, Number, content, number, plain_text, pointer
 
 if TYPE_CHECKING:
-    from drumroll.inference.results import ModelAverage
+    from drumroll.inference.results import ModelAverage, NumberingAverage, ParameterSummary
 
 
 def error_decimals(err: float, significant: int | None = None) -> int:
@@ -75,25 +75,54 @@ def value_error_number(value: float, err: float, source: str | None = None,
                   error_source=error_source if shown else None)
 
 
+def _alpha_and_t_b(parameters: dict[str, ParameterSummary], place: str) -> Content:
+    """``α = 0.9002 ± 0.0004, t_B = 0.19908 ± 0.00010 s`` of an average's ``parameters``,
+    each number naming its place (``place``: the average's key in ``summary.json``)."""
+    parts: list[Content] = []
+    for name, symbol, unit in (("alpha", "α", ""), ("t_b", "t_B", " s")):
+        p = parameters.get(name)
+        if p is not None and p.mean is not None and p.sd is not None:
+            source = pointer(place, "parameters", name)
+            parts.append((f"{symbol} = ", value_error_number(
+                p.mean, p.sd, f"{source}/mean", f"{source}/sd"), unit))
+    return content(*[(", " if i else "", part) for i, part in enumerate(parts)])
+
+
 def model_average_content(average: ModelAverage | None) -> Content | None:
     """The stacking-weighted α and t_B (:class:`~drumroll.inference.results.ModelAverage`)
     as report content, each number naming its place in ``summary.json``; None without
     one."""
     if average is None or not average.parameters:
         return None
-    parts: list[Content] = []
-    for name, symbol, unit in (("alpha", "α", ""), ("t_b", "t_B", " s")):
-        p = average.parameters.get(name)
-        if p is not None and p.mean is not None and p.sd is not None:
-            source = pointer("model_average", "parameters", name)
-            parts.append((f"{symbol} = ", value_error_number(
-                p.mean, p.sd, f"{source}/mean", f"{source}/sd"), unit))
     weights: list[Content] = [
         (f"{m} ", number(w, f"{w:.2f}", pointer("model_average", "weights", m)))
         for m, w in average.weights.items()]
-    joined = content(*[(", " if i else "", part) for i, part in enumerate(parts)])
     listed = content(*[(", " if i else "", part) for i, part in enumerate(weights)])
-    return content(joined, " (stacking weights: ", listed, ")")
+    return content(_alpha_and_t_b(average.parameters, "model_average"),
+                   " (stacking weights: ", listed, ")")
+
+
+def numbering_average_content(average: NumberingAverage | None) -> Content | None:
+    """The main model's α and t_B averaged over the first onset's numberings
+    (:class:`~drumroll.inference.results.NumberingAverage`), with each numbering's weight,
+    as report content; None without one."""
+    if average is None or not average.parameters:
+        return None
+    weights: list[Content] = [
+        (f"{m} missed ", number(w, f"{w:.2f}",
+                                pointer("numbering_average", "probabilities", m)))
+        for m, w in average.probabilities.items()]
+    listed = content(*[(", " if i else "", part) for i, part in enumerate(weights)])
+    return content(_alpha_and_t_b(average.parameters, "numbering_average"),
+                   " (impacts missed before the first onset, weights: ", listed, ")")
+
+
+def numbering_average_text(average: NumberingAverage | None) -> str | None:
+    """One line for :func:`numbering_average_content`, e.g. ``α = 0.9214 ± 0.0005, t_B =
+    0.2530 ± 0.0009 s (impacts missed before the first onset, weights: 0 missed 0.08, 1
+    missed 0.92)``; None without one."""
+    parts = numbering_average_content(average)
+    return None if parts is None else plain_text(parts)
 
 
 def model_average_text(average: ModelAverage | None) -> str | None:

@@ -64,6 +64,7 @@ from drumroll.reporting.numbers import (
     error_decimals,
     format_value_error,
     model_average_content,
+    numbering_average_content,
 )
 from drumroll.reporting.plot_style import model_name
 
@@ -279,6 +280,23 @@ def comparison_section(summary: Summary) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
+def numbering_average_section(summary: Summary) -> tuple[Block, ...]:
+    """The main model's every quantity averaged over the first onset's numberings, where
+    no numbering is clearly preferred."""
+    average = summary.numbering_average
+    if average is None or not average.parameters:
+        return ()
+    weights = ", ".join(f"{m} missed: {w:.2f}" for m, w in average.probabilities.items())
+    return (Heading(3, ("Averaged over the first onset's numberings",)),
+            Paragraph((f"The table above takes the first onset as impact {average.fitted}. "
+                       "No numbering is clearly preferred, so this one mixes the posteriors "
+                       "of the numberings by their probabilities (impacts missed before the "
+                       f"first onset, given that it is an impact: {weights}). R-hat and ESS "
+                       "belong to each numbering's own run, not to their mixture.",)),
+            *parameter_table(average.parameters, summary.model,
+                             source="/numbering_average/parameters"))
+
+
 def adequacy_section(summary: Summary) -> tuple[Block, ...]:
     """Each model's posterior predictive checks of its residuals."""
     checked = {m: s.adequacy for m, s in summary.models.items()
@@ -428,7 +446,16 @@ def headline(summary: Summary) -> tuple[Block, ...]:
     if summary.preferred:
         text = content(text, "; " if text else "",
                        f"preferred model: {model_name(summary.preferred)}")
-    return (Paragraph((Strong(("Result:",)), " ", *text, ".")),) if text else ()
+    blocks = [Paragraph((Strong(("Result:",)), " ", *text, "."))] if text else []
+    over_numberings = numbering_average_content(summary.numbering_average)
+    if over_numberings:
+        fitted = summary.numbering_average.fitted
+        blocks.append(Paragraph((
+            Strong(("Over the first onset's numberings:",)), " ", *over_numberings,
+            f". No numbering is clearly preferred: the numbers above, the tables and the "
+            f"figures take the first onset as impact {fitted}; these mix every numbering's "
+            "posterior by its probability.")))
+    return tuple(blocks)
 
 
 def report_title(summary: Summary) -> str:
@@ -468,6 +495,7 @@ def estimate_document(summary: Summary, figures: dict[str, Path | str] | None = 
     blocks: list[Block] = [*lead(summary), Heading(2, (f"Parameters ({model_name(model)})",)),
                            *parameter_table(summary.parameters, model,
                                             summary.diagnostics.get(model)),
+                           *numbering_average_section(summary),
                            *comparison_section(summary), *adequacy_section(summary),
                            *diagnostics_section(summary.diagnostics),
                            *figures_section(figures or {})]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from drumroll.inference.model_average import model_average, stacking_weights
+from drumroll.inference.model_average import mixture_summaries, model_average, stacking_weights
 
 
 def _objective(elpd: np.ndarray, w: np.ndarray) -> float:
@@ -55,3 +55,16 @@ def test_the_average_is_the_weighted_mixture_of_the_models_draws():
     assert mixed.mean == pytest.approx(0.90025, abs=5e-6)
     assert mixed.sd == pytest.approx(np.sqrt(1e-8 + 0.75 * 0.25 * 1e-6), rel=0.03)
     assert mixed.r_hat is None and mixed.hdi_low < 0.9 and mixed.hdi_high > 0.9009
+
+
+def test_a_mixture_of_components_that_lack_a_quantity_leaves_it_out():
+    rng = np.random.default_rng(1)
+    posteriors = {0: {"alpha": rng.normal(0.9, 1e-3, 4000), "t_b": np.full(4000, 0.25)},
+                  1: {"alpha": rng.normal(0.8, 1e-3, 4000)}}
+    got = mixture_summaries(posteriors, {0: 0.5, 1: 0.5}, ["alpha", "t_b"])
+    assert set(got) == {"alpha"}
+    # Two well separated halves: the mean halfway, the sd half the separation, and the
+    # shortest interval of 90 % reaching into both.
+    assert got["alpha"].mean == pytest.approx(0.85, abs=1e-3)
+    assert got["alpha"].sd == pytest.approx(0.05, rel=0.02)
+    assert got["alpha"].hdi_low < 0.81 and got["alpha"].hdi_high > 0.89
