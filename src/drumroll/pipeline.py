@@ -827,15 +827,42 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
 
     def keep_evidence(missed: int, output: tuple) -> None:
         chain, evidence = output[0], output[1]
-        # Its draws too, for the average over the numberings (the same generator as the
-        # main fit's draws).
-        numberings.draws[missed] = parameter_draws(
-            renumbered[missed], chain.samples, np.random.default_rng(seeds[config.model]))[0]
+        numberings.fitted[missed] = (renumbered[missed], chain.samples)  # for the average
         numberings.log_z[missed] = (-math.inf if evidence is None
                                     else evidence.log_z + own_density.get(missed, 0.0))
 
     def renumbered_fit(missed: int) -> tuple:
         return _fit, renumbered[missed], evidence_settings, seeds[config.model]
+
+    def numbering_draws(mixed: dict[int, float]) -> dict[int, dict[str, np.ndarray]]:
+        """The main model's draws of each numbering in ``mixed`` (quantity key → array): the
+        main fit's; a numbering's own fit's (of this pass or the first); else the importance
+        sample its evidence came from, which passed its diagnostic, resampled by its
+        weights; any other is sampled now."""
+        rng = np.random.default_rng(seeds[config.model])
+        draws = {**numberings.draws, numbered_from: _variables(every_draw[config.model])}
+        unsampled = {}
+        for m in mixed:
+            if m in draws:
+                continue
+            if m in numberings.fitted:
+                log_posterior, samples = numberings.fitted[m]
+                draws[m] = parameter_draws(log_posterior, samples, rng)[0]
+                continue
+            log_posterior = LogPosterior.build(config, config.model, shifted(fitted.data, m),
+                                               settings.noise, settings.nu)
+            sample = numberings.samples.get(m)
+            if sample is not None and sample.evidence.trusted:
+                draws[m] = parameter_draws(log_posterior,
+                                           sample.resampled(RESAMPLED, rng)[None], rng)[0]
+            else:
+                unsampled[m] = log_posterior
+        if unsampled:
+            say(f"{config.model}: sampling the first onset numbered as impact "
+                f"{', '.join(map(str, unsampled))}, for the average over the numberings")
+            draws.update(_sampled_draws(unsampled, replace(evidence_settings, evidence="none"),
+                                        seeds[config.model], workers))
+        return draws
 
     def probabilities() -> dict[int, float]:
         """P(m) for every numbering weighed, once each one's ln Z is known (else {})."""
@@ -943,32 +970,11 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     stray_first = found.get(STRAY, fitted.dropped_stray)
     numbering_averaged = None
     mixed = mixed_numberings(_given_an_impact(missed_first)) if missed_first else {}
-    if mixed:
-        # No numbering clearly preferred: the honest posterior mixes them. Those without a
-        # fit of their own took their evidence from their screen's importance sample, which
-        # passed its diagnostic: resampled, it is their posterior; any other is sampled now.
+    if mixed:  # no numbering clearly preferred: the honest posterior mixes them
         started = time.perf_counter()
-        resampled = np.random.default_rng(seeds[config.model])
-        for m in mixed:
-            sample = numberings.samples.get(m)
-            if (m != numbered_from and m not in numberings.draws and sample is not None
-                    and sample.evidence.trusted):
-                numberings.draws[m] = parameter_draws(
-                    LogPosterior.build(config, config.model, shifted(fitted.data, m),
-                                       settings.noise, settings.nu),
-                    sample.resampled(RESAMPLED, resampled)[None], resampled)[0]
-        unsampled = {m: LogPosterior.build(config, config.model, shifted(fitted.data, m),
-                                           settings.noise, settings.nu)
-                     for m in mixed if m != numbered_from and m not in numberings.draws}
-        if unsampled:
-            say(f"{config.model}: sampling the first onset numbered as impact "
-                f"{', '.join(map(str, unsampled))}, for the average over the numberings")
-            numberings.draws.update(_sampled_draws(
-                unsampled, replace(evidence_settings, evidence="none"), seeds[config.model],
-                workers))
         numbering_averaged = numbering_average(
-            {**numberings.draws, numbered_from: _variables(every_draw[config.model])}, mixed,
-            numbered_from, settings.hdi_prob, seed=settings.sampler.seed)
+            numbering_draws(mixed), mixed, numbered_from, settings.hdi_prob,
+            seed=settings.sampler.seed)
         seconds["numbering_average"] = time.perf_counter() - started
     stray_warned = stray_warning(config.model, stray_first, fitted.dropped_stray is not None)
     model_diagnostics = {}

@@ -323,9 +323,11 @@ class Numberings:
     screen_evidences: dict[int, Evidence | None] = field(default_factory=dict)
     log_z: dict[int, float] = field(default_factory=dict)
     screened_out: set[int] = field(default_factory=set)
-    #: The main model's draws (quantity key → array) of each numbering with a fit of its own,
-    #: and the importance samples of those screened, for the average over the numberings.
+    #: For the average over the numberings: the main model's draws (quantity key → array)
+    #: of a first pass's main fit, each numbering fitted for its evidence (its log posterior
+    #: and the chain's parameter samples), and the importance samples of those screened.
     draws: dict[int, dict[str, NDArray]] = field(default_factory=dict)
+    fitted: dict[int, tuple[LogPosterior, NDArray]] = field(default_factory=dict)
     samples: dict[int, ImportanceSample] = field(default_factory=dict)
 
     def early_renumbering(self, numbered_from: int) -> int | None:

@@ -40,7 +40,7 @@ from drumroll.inference.missed_impacts import (
 )
 from drumroll.inference.posterior import LogPosterior, t0_window
 from drumroll.inference.settings import estimate_settings
-from drumroll.pipeline import _fit, choose_roll, load_onsets
+from drumroll.pipeline import _fit, _sampled_draws, choose_roll, load_onsets
 from paths import CORPUS, DATA
 
 COVARIANCE = np.array([[2.0, 0.6, -0.3], [0.6, 1.0, 0.2], [-0.3, 0.2, 0.5]])
@@ -210,6 +210,15 @@ def test_the_proposal_density_is_scipys_mixture():
     assert np.all(on_plateau[which == 1]) and abs(np.mean(which == 1) - 0.7) < 0.03
 
 
+def _table2_h80() -> tuple:
+    """table2_h80's config, its estimate settings, its onsets as the extractor finds them,
+    and the same with the first onset cut off (numbered from 0)."""
+    config = load_config(DATA / "table2_h80.toml")
+    data = choose_roll(load_onsets(DATA / "table2_h80.flac")).data
+    late = OnsetData(data.times[1:], data.sigmas[1:], np.asarray(data.bounces[1:]) - 1)
+    return config, estimate_settings(config), data, late
+
+
 @pytest.mark.slow
 def test_the_screen_agrees_with_the_fitted_evidences():
     """table2_h80, whole and with its first onset cut off, each numbered from impacts 0, 1, 2,
@@ -218,11 +227,8 @@ def test_the_screen_agrees_with_the_fitted_evidences():
     (there it may miss the mode: the whole roll numbered from impact 2 screens 28 nats under
     its fit, both far under the best); the evidence sampled from the screen, where its
     diagnostic trusts it, within 0.25 nat (its own error a few hundredths)."""
-    config = load_config(DATA / "table2_h80.toml")
-    settings = estimate_settings(config)
+    config, settings, data, late = _table2_h80()
     quick = replace(settings, sampler=replace(settings.sampler, target_ess=300))
-    data = choose_roll(load_onsets(DATA / "table2_h80.flac")).data
-    late = OnsetData(data.times[1:], data.sigmas[1:], np.asarray(data.bounces[1:]) - 1)
     trusted = 0
     for onsets in (data, late):
         fitted, found = {}, {}
@@ -363,11 +369,8 @@ def test_the_screens_importance_sample_is_the_numberings_posterior():
     """table2_h80 with its first onset cut off, numbered from impacts 0 and 1: α's mean and sd
     of the screen's importance sample, resampled, against a fit of the same numbering (emcee):
     within a fifth of an sd and 15 %, where the sample's diagnostic trusts it."""
-    config = load_config(DATA / "table2_h80.toml")
-    settings = estimate_settings(config)
+    config, settings, _, late = _table2_h80()
     quick = replace(settings, sampler=replace(settings.sampler, target_ess=600))
-    data = choose_roll(load_onsets(DATA / "table2_h80.flac")).data
-    late = OnsetData(data.times[1:], data.sigmas[1:], np.asarray(data.bounces[1:]) - 1)
     compared = 0
     for missed in (0, 1):
         log_posterior = LogPosterior.build(config, config.model, shifted(late, missed),
@@ -385,3 +388,20 @@ def test_the_screens_importance_sample_is_the_numberings_posterior():
             assert np.mean(resampled[key]) == pytest.approx(np.mean(fitted[key]), abs=0.2 * sd)
             assert np.std(resampled[key]) == pytest.approx(sd, rel=0.15)
     assert compared == 2
+
+
+def test_a_numbering_without_draws_is_sampled_alike_in_one_process_or_two():
+    """The average's fallback for a numbering with neither a fit nor a trusted importance
+    sample: sampled as the main fit is, the same draws whether side by side or not, around
+    the simulator's α."""
+    config, settings, _, late = _table2_h80()
+    quick = replace(settings, evidence="none",
+                    sampler=replace(settings.sampler, target_ess=300))
+    posteriors = {m: LogPosterior.build(config, config.model, shifted(late, m), settings.noise,
+                                        settings.nu) for m in (1, 2)}
+    alone = _sampled_draws(posteriors, quick, 5, workers=1)
+    side_by_side = _sampled_draws(posteriors, quick, 5, workers=2)
+    for m in (1, 2):
+        np.testing.assert_array_equal(alone[m]["alpha"], side_by_side[m]["alpha"])
+    alpha = alone[1]["alpha"]
+    assert abs(alpha.mean() - 0.9) < 3 * alpha.std()
