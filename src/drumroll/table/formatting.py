@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from drumroll.inference.results import NumberingAverage
 from drumroll.reporting.document import (
     Block,
     Callout,
@@ -33,7 +34,11 @@ from drumroll.reporting.document import (
 )
 from drumroll.reporting.html import render_html
 from drumroll.reporting.markdown import render_markdown
-from drumroll.reporting.numbers import format_value_error, value_error_number
+from drumroll.reporting.numbers import (
+    format_value_error,
+    numbering_average_text,
+    value_error_number,
+)
 from drumroll.table.execute import Estimate, TableResult
 from drumroll.table.runs import vary_spec, vary_value
 
@@ -91,6 +96,10 @@ def table_rows(result: TableResult) -> list[dict[str, Any]]:
             "n_onsets": summary.n_onsets,
             "notes": list(summary.notes),
             "warnings": summary.warnings,
+            # The main model over the first onset's numberings, where none is clearly
+            # preferred (summary.json's numbering_average; else None).
+            "numbering_average": (None if summary.numbering_average is None
+                                  else summary.numbering_average.to_json()),
             "shared": list(result.runs.share),
         }
         if run.label in joint_rows:
@@ -224,6 +233,11 @@ def notes(result: TableResult, rows: list[dict[str, Any]], said: set[str] = froz
         for warning in main:
             if warning not in said:
                 out.append(TableNote((f"Warning ({row['label']}): {warning}",), warning=True))
+        averaged = row.get("numbering_average")
+        if averaged:
+            text = numbering_average_text(NumberingAverage.from_json(averaged))
+            out.append(TableNote((f"Over the first onset's numberings ({row['label']}, "
+                                  f"{row['model']}): {text}.",)))
         if len(row["warnings"]) > len(main):
             out.append(TableNote((
                 f"({row['label']}: {len(row['warnings']) - len(main)} more warning(s) about "
