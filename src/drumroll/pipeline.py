@@ -969,7 +969,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     missed_first = (tuple(found[m] for m in range(highest + 1)) if found and numbered else ())
     stray_first = found.get(STRAY, fitted.dropped_stray)
     numbering_averaged = None
-    mixed = mixed_numberings(_given_an_impact(missed_first)) if missed_first else {}
+    mixed = mixed_numberings(found)
     if mixed:  # no numbering clearly preferred: the honest posterior mixes them
         started = time.perf_counter()
         numbering_averaged = numbering_average(

@@ -172,8 +172,9 @@ def stray_warning(model: str, probability: float | None, dropped: bool) -> str |
                 f"may be its first impact (P = {1.0 - probability:.2g}); check the recording's "
                 "start (onsets.png)")
     return (f"{model}: the first onset may be a sound that is no impact of the roll (a tap "
-            f"before it): P = {probability:.2g}, while every number given counts it as a "
-            "bounce; check the recording's start (onsets.png)")
+            f"before it): P = {probability:.2g}, while the fits and figures count it as a "
+            "bounce (the numbers over the numberings mix both); check the recording's start "
+            "(onsets.png)")
 
 
 def stray_note(time_s: float, probability: float, model: str) -> str:
@@ -272,13 +273,21 @@ def renumbering(probabilities: Sequence[float] | Mapping[int, float], numbered_f
     return likeliest if found[likeliest] >= CLEARLY or rejected else None
 
 
-def mixed_numberings(probabilities: Sequence[float]) -> dict[int, float]:
-    """The numberings the average over numberings mixes: m → its weight, for each m of
-    probability at least :data:`MIXED` (``probabilities`` given that the first onset is an
-    impact), renormalised; empty where only one has that much (it is the posterior)."""
-    kept = {m: float(p) for m, p in enumerate(probabilities) if p >= MIXED}
+def mixed_numberings(probabilities: Sequence[float] | Mapping[int, float]) -> dict[int, float]:
+    """The numberings the average over numberings mixes: m → its weight, for each numbering
+    weighed (0, 1, 2 impacts missed, :data:`STRAY`) of probability at least :data:`MIXED`,
+    renormalised; empty where only one has that much (it is the posterior)."""
+    found = (dict(probabilities) if isinstance(probabilities, Mapping)
+             else dict(enumerate(probabilities)))
+    kept = {m: float(p) for m, p in found.items() if p >= MIXED}
     total = sum(kept.values())
     return {m: p / total for m, p in kept.items()} if len(kept) > 1 else {}
+
+
+def numbering_key(missed: int) -> str:
+    """A numbering's key in ``summary.json``: the impacts missed ("0", "1", "2"), or "stray"
+    (:data:`STRAY`: the first onset no impact of the roll)."""
+    return "stray" if missed == STRAY else str(missed)
 
 
 def numbering_average(posteriors: Mapping[int, Mapping[str, Any]],
@@ -308,7 +317,8 @@ def numbering_average(posteriors: Mapping[int, Mapping[str, Any]],
 
     names = list(posteriors[fitted])
     return NumberingAverage(
-        fitted=fitted, probabilities={str(m): w for m, w in weights.items()},
+        fitted=numbering_key(fitted),
+        probabilities={numbering_key(m): w for m, w in weights.items()},
         parameters=mixture_summaries({m: posteriors[m] for m in weights}, weights, names,
                                      prob, seed=seed))
 

@@ -198,12 +198,12 @@ class NumberingAverage(Record):
     clearly preferred, every number of one numbering's fit holds only if that numbering is
     the right one, and the honest posterior is the mixture of the numberings' posteriors
     weighted by their probabilities. ``probabilities`` maps impacts missed ("0", "1", …) to
-    the weight of that numbering in the mixture (those of probability 0.01 or more, given
-    that the first onset is an impact, renormalised); ``fitted`` is the numbering the fits
-    and figures use. Intervals are highest-density intervals of the mixture (R-hat and ESS:
-    None)."""
+    the weight of that numbering in the mixture, "stray" that of the first onset's being no
+    impact of the roll (those of probability 0.01 or more, renormalised); ``fitted`` is the
+    numbering the fits and figures use. Intervals are highest-density intervals of the
+    mixture (R-hat and ESS: None)."""
 
-    fitted: int = 0
+    fitted: str = "0"
     probabilities: dict[str, float] = field(default_factory=dict)
     parameters: dict[str, ParameterSummary] = field(default_factory=dict)
     nested: ClassVar[dict[str, tuple[type[Record], str]]] = {

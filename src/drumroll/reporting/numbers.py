@@ -109,18 +109,23 @@ def numbering_average_content(average: NumberingAverage | None) -> Content | Non
     if average is None or not average.parameters:
         return None
     weights: list[Content] = [
-        (f"{m} missed ", number(w, f"{w:.2f}",
-                                pointer("numbering_average", "probabilities", m)))
+        (f"{numbering_name(m)} ", number(w, f"{w:.2f}",
+                                          pointer("numbering_average", "probabilities", m)))
         for m, w in average.probabilities.items()]
     listed = content(*[(", " if i else "", part) for i, part in enumerate(weights)])
     return content(_alpha_and_t_b(average.parameters, "numbering_average"),
-                   " (impacts missed before the first onset, weights: ", listed, ")")
+                   " (weights: ", listed, ")")
+
+
+def numbering_name(key: str) -> str:
+    """A numbering in words from its key: ``1 missed`` (impacts missed before the first
+    onset), ``first onset no impact`` ("stray")."""
+    return "first onset no impact" if key == "stray" else f"{key} missed"
 
 
 def numbering_average_text(average: NumberingAverage | None) -> str | None:
     """One line for :func:`numbering_average_content`, e.g. ``α = 0.9214 ± 0.0005, t_B =
-    0.2530 ± 0.0009 s (impacts missed before the first onset, weights: 0 missed 0.08, 1
-    missed 0.92)``; None without one."""
+    0.2530 ± 0.0009 s (weights: 0 missed 0.08, 1 missed 0.92)``; None without one."""
     parts = numbering_average_content(average)
     return None if parts is None else plain_text(parts)
 

@@ -65,6 +65,7 @@ from drumroll.reporting.numbers import (
     format_value_error,
     model_average_content,
     numbering_average_content,
+    numbering_name,
 )
 from drumroll.reporting.plot_style import model_name
 
@@ -280,19 +281,26 @@ def comparison_section(summary: Summary) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
+def _numbering(key: str) -> str:
+    """``impact 1``, or ``no impact of the roll`` (a numbering's key in summary.json)."""
+    return "no impact of the roll" if key == "stray" else f"impact {key}"
+
+
 def numbering_average_section(summary: Summary) -> tuple[Block, ...]:
     """The main model's every quantity averaged over the first onset's numberings, where
     no numbering is clearly preferred."""
     average = summary.numbering_average
     if average is None or not average.parameters:
         return ()
-    weights = ", ".join(f"{m} missed: {w:.2f}" for m, w in average.probabilities.items())
+    weights = ", ".join(f"{numbering_name(m)}: {w:.2f}"
+                        for m, w in average.probabilities.items())
     return (Heading(3, ("Averaged over the first onset's numberings",)),
-            Paragraph((f"The table above takes the first onset as impact {average.fitted}. "
-                       "No numbering is clearly preferred, so this one mixes the posteriors "
-                       "of the numberings by their probabilities (impacts missed before the "
-                       f"first onset, given that it is an impact: {weights}). R-hat and ESS "
-                       "belong to each numbering's own run, not to their mixture.",)),
+            Paragraph((f"The table above takes the first onset as "
+                       f"{_numbering(average.fitted)}. No numbering is clearly preferred, so "
+                       "this one mixes the posteriors of the numberings by their "
+                       f"probabilities (impacts missed before the first onset, or the first "
+                       f"onset no impact of the roll: {weights}). R-hat and ESS belong to each "
+                       "numbering's own run, not to their mixture.",)),
             *parameter_table(average.parameters, summary.model,
                              source="/numbering_average/parameters"))
 
@@ -449,12 +457,11 @@ def headline(summary: Summary) -> tuple[Block, ...]:
     blocks = [Paragraph((Strong(("Result:",)), " ", *text, "."))] if text else []
     over_numberings = numbering_average_content(summary.numbering_average)
     if over_numberings:
-        fitted = summary.numbering_average.fitted
         blocks.append(Paragraph((
             Strong(("Over the first onset's numberings:",)), " ", *over_numberings,
             f". No numbering is clearly preferred: the numbers above, the tables and the "
-            f"figures take the first onset as impact {fitted}; these mix every numbering's "
-            "posterior by its probability.")))
+            f"figures take the first onset as {_numbering(summary.numbering_average.fitted)}; "
+            "these mix every numbering's posterior by its probability.")))
     return tuple(blocks)
 
 

@@ -354,6 +354,8 @@ def test_only_numberings_of_some_weight_are_mixed():
     assert mixed_numberings((0.98, 0.02, 0.0)) == pytest.approx({0: 0.98, 1: 0.02})
     got = mixed_numberings((0.2, 0.5, 0.295, 0.005))
     assert got == pytest.approx({0: 0.2 / 0.995, 1: 0.5 / 0.995, 2: 0.295 / 0.995})
+    # a tap taken for the first bounce is a numbering like the others
+    assert mixed_numberings({STRAY: 0.7, 0: 0.3, 1: 0.0}) == pytest.approx({STRAY: 0.7, 0: 0.3})
 
 
 def test_an_importance_sample_resamples_in_proportion_to_its_weights():
