@@ -543,18 +543,22 @@ def screened_evidence(log_posterior: LogPosterior, found: Screen, seed: int,
 
 @dataclass(frozen=True)
 class ImportanceSample:
-    """A numbering's importance sample from its screen: the draws as the model's parameters
-    x ``(n, ndim)``, their log weights ln p − ln q, and the evidence they give."""
+    """A numbering's importance sample from its screen: the draws z ``(n, ndim)`` in the
+    sampler's ``coordinates``, their log weights ln p − ln q, and the evidence they give."""
 
-    x: NDArray
+    z: NDArray
     log_w: NDArray
     evidence: Evidence
+    coordinates: SamplerCoordinates | None = None
 
     def resampled(self, n: int, rng: np.random.Generator) -> NDArray:
-        """``n`` draws of the posterior: the draws resampled in proportion to their weights
-        (as PSIS-LOO's draws are reweighted; the weights' ESS says how many are distinct)."""
+        """``n`` draws of the posterior as the model's parameters x ``(n, ndim)``: the draws
+        resampled in proportion to their weights (the weights' ESS says how many are
+        distinct), mapped out of the sampler's coordinates (only these: the map costs as
+        much as the screen's last density evaluation)."""
         w = np.exp(self.log_w - np.max(self.log_w))
-        return self.x[rng.choice(self.x.shape[0], size=n, p=w / w.sum())]
+        z = self.z[rng.choice(self.z.shape[0], size=n, p=w / w.sum())]
+        return z if self.coordinates is None else self.coordinates.to_parameters(z)[0]
 
 
 def importance_sample(log_posterior: LogPosterior, found: Screen, seed: int,
@@ -616,8 +620,7 @@ def importance_sample(log_posterior: LogPosterior, found: Screen, seed: int,
         shares = shares / shares.sum()
     z, _, log_w = _weighted_draws(target, drawn, frees, means, covariances, shares, columns,
                                   widths, n, rng)
-    return ImportanceSample(target.coordinates.to_parameters(z)[0], log_w,
-                            weighted_evidence(log_w))
+    return ImportanceSample(z, log_w, weighted_evidence(log_w), target.coordinates)
 
 
 def _weighted_draws(target: SamplerTarget, branches: list[Branch], frees: list[list[int]],
