@@ -62,6 +62,7 @@ from drumroll.reporting.html import render_html
 from drumroll.reporting.markdown import render_markdown
 from drumroll.reporting.numbers import (
     error_decimals,
+    first_onset_as,
     format_value_error,
     model_average_content,
     numbering_average_content,
@@ -281,11 +282,6 @@ def comparison_section(summary: Summary) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
-def _numbering(key: str) -> str:
-    """``impact 1``, or ``no impact of the roll`` (a numbering's key in summary.json)."""
-    return "no impact of the roll" if key == "stray" else f"impact {key}"
-
-
 def numbering_average_section(summary: Summary) -> tuple[Block, ...]:
     """The main model's every quantity averaged over the first onset's numberings, where
     no numbering is clearly preferred."""
@@ -296,7 +292,7 @@ def numbering_average_section(summary: Summary) -> tuple[Block, ...]:
                         for m, w in average.probabilities.items())
     return (Heading(3, ("Averaged over the first onset's numberings",)),
             Paragraph((f"The table above takes the first onset as "
-                       f"{_numbering(average.fitted)}. No numbering is clearly preferred, so "
+                       f"{first_onset_as(average.fitted)}. No numbering is clearly preferred, so "
                        "this one mixes the posteriors of the numberings by their "
                        f"probabilities (impacts missed before the first onset, or the first "
                        f"onset no impact of the roll: {weights}). R-hat and ESS belong to each "
@@ -460,7 +456,7 @@ def headline(summary: Summary) -> tuple[Block, ...]:
         blocks.append(Paragraph((
             Strong(("Over the first onset's numberings:",)), " ", *over_numberings,
             f". No numbering is clearly preferred: the numbers above, the tables and the "
-            f"figures take the first onset as {_numbering(summary.numbering_average.fitted)}; "
+            f"figures take the first onset as {first_onset_as(summary.numbering_average.fitted)}; "
             "these mix every numbering's posterior by its probability.")))
     return tuple(blocks)
 

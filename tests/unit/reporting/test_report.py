@@ -147,3 +147,30 @@ def test_a_round_off_error_is_no_error():
     assert format_value_error(0.2, 2.8e-17) == "0.2"
     assert format_value_error(0.2, 2e-10) == "0.20000000000 ± 0.00000000020"
     assert format_value_error(0.2509, 0.0061) == "0.251 ± 0.006"
+
+
+def test_a_numbering_average_is_given_after_the_result_and_after_the_table(summary):
+    from dataclasses import replace
+
+    from drumroll.inference.results import NumberingAverage
+
+    average = NumberingAverage.from_json({
+        "fitted": "0", "probabilities": {"stray": 0.7, "0": 0.3},
+        "parameters": {key: {**_stats(mean, sd), "r_hat": None, "ess_bulk": None,
+                             "ess_tail": None}  # a mixture has neither
+                       for key, mean, sd in (("alpha", 0.94444, 0.00017),
+                                             ("t_b", 0.186, 0.005))}})
+    text = render_report(replace(summary, numbering_average=average))
+    lines = text.splitlines()
+    result = next(i for i, line in enumerate(lines) if line.startswith("**Result:**"))
+    assert lines[result + 2].startswith(
+        "**Over the first onset's numberings:** α = 0.94444 ± 0.00017, t_B = 0.186 ± 0.005 s "
+        "(weights: first onset no impact 0.70, 0 missed 0.30). No numbering is clearly "
+        "preferred: the numbers above, the tables and the figures take the first onset as "
+        "impact 0;")
+    section = lines.index("### Averaged over the first onset's numberings")
+    assert section > lines.index("## Parameters (exact pendulum)")
+    rows = [line for line in lines[section:] if line.startswith("| α |")]
+    assert "0.94444 ± 0.00017" in rows[0] and "| — |" in rows[0]
+    assert "## Averaged" not in render_report(summary) and "numberings" not in \
+        render_report(summary)
