@@ -99,7 +99,9 @@ def draw_residuals(summary: Summary):
         if lag is not None and lag.observed is not None and lag.p_value is not None:
             text += (f"\nresiduals' lag-1 correlation {lag.observed:.2f} (the noise's "
                      f"{lag.replicated:.2f}, {p_value_text(lag.p_value)})"
-                     + ("" if checked.adequate is not False else ": the model misses a pattern"))
+                     # its own last line: the right title's last line shares the left
+                     # title's baseline, and the whole of this one ran into the model's name
+                     + ("" if checked.adequate is not False else "\nthe model misses a pattern"))
         top = 1.08 * ms * float(np.nanmax(np.abs(np.concatenate(
             (r["residual"] + r["sigma"], r["residual"] - r["sigma"], r["low"], r["high"])))))
         if top > 0:
