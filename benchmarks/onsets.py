@@ -845,12 +845,14 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
           "|offset| of the decoded audio by cross-correlation, spread of the "
           "shifts as an sd = 1.4826 MAD)")
     print(f"  {'recordings':26s} {'condition':30s} {'F1':>6s} {'MAD ms':>7s} {'first':>6s} "
-          f"{'found':>6s} {'impacts':>7s} {'1 ms':>6s} {'shift ms':>9s} {'offset ms':>9s} {'sd ms':>6s}")
+          f"{'found':>6s} {'impacts':>7s} {'1 ms':>6s} {'shift ms':>9s} {'offset ms':>9s} "
+          f"{'sd ms':>6s}")
     for label, rows in out.items():
         for condition, r in rows.items():
             print(f"  {label:26s} {condition:30s} {r.get('f1', np.nan):6.3f} "
                   f"{r.get('mad_ms', np.nan):7.3f} {r.get('first', 0):>2d}/{r.get('n', 0):<3d} "
-                  f"{r['found']:6.3f} {r['found_impacts']:7.3f} {r['timed']:6.3f} {r['shift_ms']:9.3f} "
+                  f"{r['found']:6.3f} {r['found_impacts']:7.3f} {r['timed']:6.3f} "
+                  f"{r['shift_ms']:9.3f} "
                   f"{r['offset_ms']:9.4f} {r['sd_ms']:6.3f}")
     print("\ntiming floors, pooled over every source (sd = 1.4826 MAD of the shifts, less each "
           "recording's median; drumroll.audio.timing holds them)")
