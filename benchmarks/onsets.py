@@ -35,7 +35,9 @@ resampled to 16 and 8 kHz, and through a phone's automatic gain control (alone a
 64 kb/s), each scored side by side with the lossless original by the corpus's rules (F1, MAD
 against the truth, first impact found) and onset by onset against the original's onsets: the
 share found within 1 ms (of all the original's onsets, and of those that time an audible true
-impact: :func:`audible_onsets`), the median shift, the decoded audio's offset against the original
+impact: :func:`audible_onsets`), the share of audible true impacts with an onset within 1 ms
+of the truth itself (:func:`timed_impacts`), the median shift, the decoded audio's offset
+against the original
 (cross-correlation: the priming taken off, or not) and the spread of the shifts (1.4826 x MAD,
 an sd), which is the timing floor ``drumroll.audio.timing`` adds to ``sigma_s``.
 ``--phone-condition`` runs only the conditions whose label holds the text (``'AAC 128'``);
@@ -667,6 +669,11 @@ def timed_impacts(tables: dict, folder: Path, tol: float = 0.001) -> tuple[int, 
     return total, timed
 
 
+def share(total: int, part: int) -> float:
+    """``part`` over ``total`` (0 when there is none)."""
+    return part / max(total, 1)
+
+
 def traced_detect(path: Path):
     """:func:`~drumroll.onsets.detect` on ``path``, with every roll's onset times as the
     tracker gave them and after each stage of ``drumroll.onsets.detector.STAGES``: returns
@@ -786,9 +793,8 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
             row = score_folder(folder, pattern, tables=reference, verbose=False)
             if row is None:
                 continue
-            n_impacts, timed = timed_impacts(reference, folder)
             rows = {"lossless original": dict(row, found=1.0, found_impacts=1.0,
-                                              timed=timed / max(n_impacts, 1),
+                                              timed=share(*timed_impacts(reference, folder)),
                                               shift_ms=0.0, offset_ms=0.0, sd_ms=0.0)}
             rise = impact_rises(reference, folder)
             if rise.size:
@@ -830,8 +836,7 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                 sd = 1.4826 * float(np.median(np.abs(centred))) if centred.size else np.nan
                 rows[condition] = dict(scored, found=found / max(total, 1),
                                        found_impacts=found_impacts / max(impacts, 1),
-                                       timed=(lambda n, k: k / max(n, 1))(
-                                           *timed_impacts(tables, folder)),
+                                       timed=share(*timed_impacts(tables, folder)),
                                        shift_ms=1e3 * float(np.median(raw)) if raw.size
                                        else np.nan,
                                        offset_ms=float(np.median(np.abs(offsets))),

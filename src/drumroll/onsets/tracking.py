@@ -37,8 +37,9 @@ the ``beam`` best paths ending at each onset. The best path is a roll; it starts
 evidence starts and stops where further candidates no longer add to it. A recording may hold
 several rolls: the search is repeated on the candidates outside the rolls found so far for as
 long as a path scores above zero. A path with three flights in a row that do not shrink is a
-steady pulse, no bouncer's (a metronome, a clock: :func:`pulse_log_odds`); its sounds are set
-aside and the rest searched again. A stretch of many rolls with short pauses between them is
+steady pulse, no bouncer's (a metronome, a clock: :func:`pulse_log_odds`, its bar raised by
+the number of places on the path it was looked for, :func:`in_steady_pulse`); its sounds are
+set aside and the rest searched again. A stretch of many rolls with short pauses between them is
 searched in windows of a minute (each looking half a minute further, so that a roll starting
 in it is seen whole): work and memory grow with the recording's length, not its square.
 """
