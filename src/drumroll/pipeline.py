@@ -781,13 +781,13 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                 begun += time.perf_counter() - started_between  # not the screens' time
             found = screen(log_posterior, seeds[config.model])
             sample = importance_sample(log_posterior, found, seeds[config.model])
-            evidence = None if sample is None else sample.evidence
-            if sample is not None:
-                numberings.samples[missed] = sample
             extra = own_density.get(missed, 0.0)
             screens[missed] = replace(found, log_z=found.log_z + extra)
-            screen_evidences[missed] = (None if evidence is None
-                                        else replace(evidence, log_z=evidence.log_z + extra))
+            screen_evidences[missed] = None
+            if sample is not None:
+                numberings.samples[missed] = sample  # for the average over the numberings
+                screen_evidences[missed] = replace(sample.evidence,
+                                                   log_z=sample.evidence.log_z + extra)
         if renumbered:  # while the models are sampled: part of "sampling", shown apart
             seconds["missed_first_screen"] = (seconds.get("missed_first_screen", 0.0)
                                               + time.perf_counter() - begun)

@@ -16,7 +16,7 @@ onsets, the first onset's bounce number for an onset file that gives one; Z_m of
 the main fit's own evidence. Every other numbering (up to ``[likelihood] missed_first``, 2 by
 default, or the source's if higher) is screened while the models are sampled: a
 Laplace estimate of its evidence at its mode (:func:`screen`, about 0.2 CPU-s), then
-importance sampling from a mixture built on it (:func:`screened_evidence`, 0.05 s), whose
+importance sampling from a mixture built on it (:func:`importance_sample`, 0.05 s), whose
 estimate is used where its own diagnostic trusts it. Where it does not, the numbering is
 fitted for its evidence (sampled to a smaller ESS: its draws only have to carry the
 importance-sampling evidence), unless the Laplace estimate falls :data:`SCREEN_NATS` below
@@ -63,7 +63,7 @@ from drumroll.inference.coordinates import SamplerCoordinates
 from drumroll.inference.evidence import IMPORTANCE_DRAWS, Evidence, weighted_evidence
 from drumroll.inference.likelihood import OnsetData
 from drumroll.inference.posterior import LogPosterior
-from drumroll.inference.results import NumberingAverage
+from drumroll.inference.results import STRAY_KEY, NumberingAverage
 from drumroll.inference.sampling import SamplerTarget, climb, find_start
 from drumroll.onsets.tracking import TrackParams
 from drumroll.stats import student_t_log_norm, student_t_logpdf_fixed
@@ -287,7 +287,7 @@ def mixed_numberings(probabilities: Sequence[float] | Mapping[int, float]) -> di
 def numbering_key(missed: int) -> str:
     """A numbering's key in ``summary.json``: the impacts missed ("0", "1", "2"), or "stray"
     (:data:`STRAY`: the first onset no impact of the roll)."""
-    return "stray" if missed == STRAY else str(missed)
+    return STRAY_KEY if missed == STRAY else str(missed)
 
 
 def numbering_average(posteriors: Mapping[int, Mapping[str, Any]],
@@ -532,15 +532,6 @@ def screen(log_posterior: LogPosterior, seed: int) -> Screen:
     return Screen(float(special.logsumexp(finite)) if finite else math.nan, tuple(branches))
 
 
-def screened_evidence(log_posterior: LogPosterior, found: Screen, seed: int,
-                      n: int = IMPORTANCE_DRAWS) -> Evidence | None:
-    """ln Z of a numbering by importance sampling from its screen (:func:`importance_sample`),
-    in place of a fit where its own diagnostic trusts it (:attr:`Evidence.trusted`; None: no
-    branch to draw from, or one holding mass that cannot be drawn from)."""
-    sample = importance_sample(log_posterior, found, seed, n)
-    return None if sample is None else sample.evidence
-
-
 @dataclass(frozen=True)
 class ImportanceSample:
     """A numbering's importance sample from its screen: the draws z ``(n, ndim)`` in the
@@ -639,7 +630,7 @@ def _mixture_draws(branches: list[Branch], frees: list[list[int]], means: list[N
                    covariances: list[NDArray], shares: NDArray, columns: dict[str, int],
                    widths: dict[str, float], n: int, rng: np.random.Generator
                    ) -> tuple[NDArray, NDArray, NDArray]:
-    """``n`` draws of the screen's proposal mixture (see :func:`screened_evidence`): the
+    """``n`` draws of the screen's proposal mixture (see :func:`importance_sample`): the
     draws, the component each came from, and the mixture's log density at each."""
     nu = PROPOSAL_NU
     chols = [np.linalg.cholesky(c) for c in covariances]

@@ -191,6 +191,11 @@ class ModelAverage(Record):
         "parameters": (ParameterSummary, "dict")}
 
 
+#: The key of "the first onset is no impact of the roll" among a numbering average's
+#: ``probabilities`` (the others are the impacts missed: "0", "1", …).
+STRAY_KEY = "stray"
+
+
 @dataclass(frozen=True)
 class NumberingAverage(Record):
     """The main model's quantities averaged over the first onset's numberings

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from drumroll.inference.results import STRAY_KEY
 from drumroll.reporting.document import Content, Number, content, number, plain_text, pointer
 
 if TYPE_CHECKING:
@@ -120,13 +121,13 @@ def numbering_average_content(average: NumberingAverage | None) -> Content | Non
 def numbering_name(key: str) -> str:
     """A numbering in words from its key in ``summary.json``: ``1 missed`` (impacts missed
     before the first onset), ``first onset no impact`` ("stray")."""
-    return "first onset no impact" if key == "stray" else f"{key} missed"
+    return "first onset no impact" if key == STRAY_KEY else f"{key} missed"
 
 
 def first_onset_as(key: str) -> str:
     """What a numbering takes the first onset for, from its key: ``impact 1``, ``no impact
     of the roll`` ("stray")."""
-    return "no impact of the roll" if key == "stray" else f"impact {key}"
+    return "no impact of the roll" if key == STRAY_KEY else f"impact {key}"
 
 
 def numbering_average_text(average: NumberingAverage | None) -> str | None:

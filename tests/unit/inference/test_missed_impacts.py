@@ -33,7 +33,6 @@ from drumroll.inference.missed_impacts import (
     needs_fit,
     renumbering,
     screen,
-    screened_evidence,
     shifted,
     stray_log_density,
     stray_warning,
@@ -238,7 +237,8 @@ def test_the_screen_agrees_with_the_fitted_evidences():
             fitted[missed] = _fit(log_posterior, quick, 11)[1]
             assert fitted[missed].trusted
             found[missed] = screen(log_posterior, 3)
-            sampled = screened_evidence(log_posterior, found[missed], 3)
+            sample = importance_sample(log_posterior, found[missed], 3)
+            sampled = None if sample is None else sample.evidence
             if sampled is not None and sampled.trusted:
                 trusted += 1
                 assert sampled.log_z == pytest.approx(fitted[missed].log_z, abs=0.25)
@@ -264,19 +264,19 @@ def test_a_branch_the_proposal_cannot_draw_from_voids_the_sampled_evidence():
     found = screen(log_posterior, 3)
     assert len(found.branches) == 2 and all(b.estimate.covariance is not None
                                             for b in found.branches)
-    assert screened_evidence(log_posterior, found, 3) is not None
+    assert importance_sample(log_posterior, found, 3) is not None
     present, absent = found.branches
 
     def without_gaussian(branch: Branch, log_z: float) -> Branch:
         return replace(branch, estimate=replace(branch.estimate, covariance=None), log_z=log_z)
 
     heavy = (without_gaussian(present, present.log_z), absent)
-    assert screened_evidence(log_posterior, Screen(found.log_z, heavy), 3) is None
+    assert importance_sample(log_posterior, Screen(found.log_z, heavy), 3) is None
     light_log_z = absent.log_z + math.log(0.001)
     light = (without_gaussian(present, light_log_z), absent)
     total = float(np.logaddexp(light_log_z, absent.log_z))
-    sampled = screened_evidence(log_posterior, Screen(total, light), 3)
-    assert sampled is not None and np.isfinite(sampled.log_z)
+    sample = importance_sample(log_posterior, Screen(total, light), 3)
+    assert sample is not None and np.isfinite(sample.evidence.log_z)
 
 
 @pytest.mark.skipif(not (CORPUS / "r06_pearl2_hard_release_96k.truth.json").exists(),
@@ -301,8 +301,8 @@ def test_a_numbering_whose_missed_flights_last_over_half_a_second_can_win():
     for missed in (1, 2):
         log_posterior = LogPosterior.build(config, config.model, shifted(data, missed),
                                            settings.noise, settings.nu)
-        evidence = screened_evidence(log_posterior, screen(log_posterior, 1), 1)
-        log_z[missed] = -math.inf if evidence is None else evidence.log_z
+        sample = importance_sample(log_posterior, screen(log_posterior, 1), 1)
+        log_z[missed] = -math.inf if sample is None else sample.evidence.log_z
     assert log_z[2] > log_z[1] + 5.0
 
 
