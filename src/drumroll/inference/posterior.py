@@ -20,6 +20,7 @@ from drumroll.inference.likelihood import (
     student_t_one,
 )
 from drumroll.inference.scatter import (
+    dense_marginal,
     onset_covariance,
     scatter_conditional_pointwise,
     scatter_marginal,
@@ -129,23 +130,35 @@ class LogPosterior:
 
     def _scatter_marginal(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         """Log-likelihood with the scatter's walk and T0 integrated out, and T0's conditional
-        mean and sd, of the valid rows of ``x`` (log-likelihood −inf and T0 NaN elsewhere)."""
-        impacts, covariance, valid = self.onset_covariance(x)
+        mean and sd, of the valid rows of ``x`` (log-likelihood −inf and T0 NaN elsewhere):
+        :func:`~drumroll.inference.scatter.scatter_marginal` (Gaussian noise, exact) or
+        :func:`~drumroll.inference.scatter.student_t_laplace` (Student-t, Laplace's method)."""
+        x = np.atleast_2d(np.asarray(x, float))
         out = np.full((3, x.shape[0]), np.nan)
         out[0] = -np.inf
+        if self.noise == "gaussian":
+            impacts, slopes, propagation, valid = self.space.impacts_and_slopes(
+                x, self.data.n_flights)
+            if valid.any():
+                rows = x[valid]
+                with np.errstate(all="ignore"):
+                    out[:, valid] = scatter_marginal(
+                        self.data, impacts[valid], slopes[valid],
+                        np.broadcast_to(self.space.value(rows, "jitter"), rows.shape[0]),
+                        np.broadcast_to(self.space.value(rows, SCATTER), rows.shape[0]),
+                        None if propagation is None else propagation[valid])
+            return out[0], out[1], out[2]
+        impacts, covariance, valid = self.onset_covariance(x)
         if valid.any():
             with np.errstate(all="ignore"):
-                out[:, valid] = self._scattered(self.space.values(x[valid]), impacts[valid],
-                                                covariance[valid])
+                out[:, valid] = self._student_t_scattered(self.space.values(x[valid]),
+                                                          impacts[valid], covariance[valid])
         return out[0], out[1], out[2]
 
-    def _scattered(self, values: dict[str, NDArray], impacts: NDArray, covariance: NDArray
-                   ) -> tuple[NDArray, NDArray, NDArray]:
-        """:func:`~drumroll.inference.scatter.scatter_marginal` (Gaussian noise, exact) or
-        :func:`~drumroll.inference.scatter.student_t_laplace` (Student-t, Laplace's method)
-        of rows whose parameters are ``values``."""
-        if self.noise == "gaussian":
-            return scatter_marginal(self.data, impacts, covariance)
+    def _student_t_scattered(self, values: dict[str, NDArray], impacts: NDArray,
+                             covariance: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """:func:`~drumroll.inference.scatter.student_t_laplace` of rows whose parameters
+        are ``values``."""
         residual, scale2 = self._student_t_parts(values, impacts)
         return student_t_laplace(residual, scatter_spread(covariance, scale2), scale2,
                                  values["nu"])
@@ -216,7 +229,9 @@ class LogPosterior:
         impacts = self.space.impact_times(v, self.data.n_flights)
         if self._scatter:
             _, covariance, _ = self.onset_covariance(x)
-            return self._scattered(v, impacts, covariance)[0]
+            if self.noise == "gaussian":
+                return dense_marginal(self.data, impacts, covariance)[0]
+            return self._student_t_scattered(v, impacts, covariance)[0]
         if self.noise == "gaussian":
             return gaussian_marginal(self.data, impacts, v["jitter"])[0]
         return student_t(self.data, impacts, v["jitter"], v["t0"], v["nu"])

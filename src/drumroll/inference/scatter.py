@@ -21,10 +21,11 @@ and T0, under its flat prior, is integrated out as in :func:`~.likelihood.gaussi
 (which this equals when s = 0). The linearisation's error, against drawing the ε and running
 the exact flights, is measured in tests/unit/inference/test_scatter.py.
 
-One bordered Cholesky factor per parameter point gives everything: the factor of
-M = [[Σ, B], [Bᵀ, c I]] with B = [r, 1] holds L (Σ = L Lᵀ) and, below it, the rows
-L₂₁ = Bᵀ L⁻ᵀ, whose products are r'Σ⁻¹r, 1'Σ⁻¹r and 1'Σ⁻¹1: one LAPACK call for a whole batch
-of walkers, with no triangular solves. ``c`` only has to make M positive definite.
+Σ is never formed for the likelihood: the walk is a Markov chain from bounce to bounce, and a
+Kalman filter along the roll (:func:`scatter_marginal`) gives r'Σ⁻¹r, 1'Σ⁻¹r, 1'Σ⁻¹1 and
+log|Σ| from the innovations, exactly, in O(K) per parameter point. Σ itself
+(:func:`onset_covariance`) serves LOO's conditional terms, the replicated onsets and the
+Student-t case below, once per draw after sampling.
 
 Under Student-t onset noise the ε cannot be integrated out in closed form: the onsets are
 t_i = T0 + τ_{k_i} + (G ε)_i + e_i with e_i ~ t_ν(0, σ_i) independent. Writing ε = s z,
@@ -47,7 +48,7 @@ the last log the precision of T0 (whose mode and sd are returned: T0's condition
 for the outputs), plus the expansion's next order in the t's third and fourth derivatives
 (bounded by what it can correct: far from the data the series means nothing).
 All of it is computed in the onsets' n × n space through S = A Aᵀ = s² G Gᵀ, so gaps (K > n)
-cost nothing. It is exact as ν → ∞ (:func:`scatter_marginal`, the dense normal); elsewhere
+cost nothing. It is exact as ν → ∞ (the normal of :func:`scatter_marginal`); elsewhere
 its error, against importance sampling over T0 and the z and against quadrature over T0
 without scatter, is measured in tests/unit/inference/test_scatter.py. LOO's terms are
 ln p(t) − ln p(t_{−i}), the second the same approximation without onset i (the scatter's walk
@@ -125,64 +126,117 @@ def onset_covariance(data: OnsetData, slopes: NDArray, jitter: NDArray, scatter:
     return covariance
 
 
-def _bordered(data: OnsetData, impacts: NDArray, covariance: NDArray
-              ) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
-    """r'Σ⁻¹r, 1'Σ⁻¹r, 1'Σ⁻¹1 and log|Σ| per row, for residuals r centred on their mean
-    (T0 is flat, so the shift changes nothing but the round-off), and that mean."""
+def dense_marginal(data: OnsetData, impacts: NDArray, covariance: NDArray
+                   ) -> tuple[NDArray, NDArray, NDArray]:
+    """:func:`scatter_marginal` from Σ itself, by dense solves: the definition the filter is
+    tested against (:meth:`~drumroll.inference.posterior.LogPosterior.reference`), for any
+    positive-definite ``covariance`` ``(batch, n, n)``; −inf (and NaN) where it is not."""
     residual = data.times - data.at_onsets(impacts)
-    centre = residual.mean(axis=1)
-    residual = residual - centre[:, None]
+    centre = residual.mean(axis=1)  # T0 is flat: centring only spares the round-off
     batch, n = residual.shape
-    border = np.stack([residual, np.ones_like(residual)], axis=2)  # B, (batch, n, 2)
-    # λ_min(Σ) ≥ min of its diagonal noise, so c > tr(BᵀB) / that bounds BᵀΣ⁻¹B from above.
-    floor = np.min(np.diagonal(covariance, axis1=1, axis2=2), axis=1)
-    c = 2.0 * (np.einsum("bij,bij->b", border, border) + 1.0) / floor
-    bordered = np.empty((batch, n + 2, n + 2))
-    bordered[:, :n, :n] = covariance
-    bordered[:, :n, n:] = border
-    bordered[:, n:, :n] = border.transpose(0, 2, 1)
-    bordered[:, n:, n:] = c[:, None, None] * np.eye(2)
-    factor = np.linalg.cholesky(bordered)
-    below = factor[:, n:, :n]  # L₂₁ = Bᵀ L⁻ᵀ
-    q_rr = np.einsum("bi,bi->b", below[:, 0], below[:, 0])
-    q_r1 = np.einsum("bi,bi->b", below[:, 0], below[:, 1])
-    q_11 = np.einsum("bi,bi->b", below[:, 1], below[:, 1])
-    log_det = 2.0 * np.log(np.diagonal(factor[:, :n, :n], axis1=1, axis2=2)).sum(axis=1)
-    return q_rr, q_r1, q_11, log_det, centre
+    right = np.stack([residual - centre[:, None], np.ones_like(residual)], axis=2)
+    out = np.full((3, batch), np.nan)
+    out[0] = -np.inf
+    for row in range(batch):
+        sign, log_det = np.linalg.slogdet(covariance[row])
+        if not (sign > 0 and np.isfinite(right[row]).all()):
+            continue
+        (q_rr, q_r1), (_, q_11) = right[row].T @ np.linalg.solve(covariance[row], right[row])
+        out[:, row] = (t0_marginal(q_rr - q_r1**2 / q_11, log_det, q_11, n),
+                       centre[row] + q_r1 / q_11, 1.0 / math.sqrt(q_11))
+    return out[0], out[1], out[2]
 
 
-def scatter_marginal(data: OnsetData, impacts: NDArray, covariance: NDArray
+def scatter_marginal(data: OnsetData, impacts: NDArray, slopes: NDArray, jitter: NDArray,
+                     scatter: NDArray, propagation: NDArray | None = None
                      ) -> tuple[NDArray, NDArray, NDArray]:
-    """Log-likelihood with the ε and T0 marginalised, and T0's conditional mean and sd.
+    """Log-likelihood with the ε and T0 marginalised, and T0's conditional mean and sd:
+    the Gaussian of Σ (:func:`onset_covariance`) without forming Σ, by a Kalman filter along
+    the roll, O(K) per row where a Cholesky factor of Σ costs O(n³) (at 55 onsets and 64
+    walkers a fifth of the time; at a start search's 10,000 points a twentieth).
+
+    The scatter's effect is a Markov chain from bounce to bounce. With w_k the change of
+    u_k = Σ_{j≤k} ln α_j and d_k that of impact k's time (w_0 = d_0 = 0),
+
+        w_k = p_k w_{k−1} + ε_k,    d_k = d_{k−1} + slope_k w_k,
+
+    p_k the restitution law's propagation ∂u_k/∂u_{k−1} (1 for a constant α), which is
+    G's D_kj = P_k / P_j written one bounce at a time; each onset observes T0 + d_{k_i} with
+    noise of variance σ² + s_i². The filter's innovations are those of the Cholesky factor
+    of Σ (Σ = L F Lᵀ, L unit lower triangular): filtering the residuals r and the vector of
+    ones side by side (the gains depend on neither) gives L⁻¹r and L⁻¹1, hence r'Σ⁻¹r,
+    1'Σ⁻¹r, 1'Σ⁻¹1, and log|Σ| = Σ log F_i: T0, flat, is integrated out exactly as there.
+    A bounce with no onset is predicted over, not observed.
 
     Parameters
     ----------
     data
         The onsets.
     impacts
-        τ_0 … τ_K, shape ``(batch, K + 1)``.
-    covariance
-        Σ from :func:`onset_covariance`, ``(batch, n_onsets, n_onsets)``.
+        τ_0 … τ_K, ``(batch, K + 1)``.
+    slopes, propagation
+        ∂T_k/∂u_k and ∂u_k/∂u_{k−1} (None: a constant α) of flights 1 … K, ``(batch, K)``.
+    jitter, scatter
+        σ and s per row, ``(batch,)``.
 
     Returns
     -------
     log_like, t0_mean, t0_sd
-        Shape ``(batch,)``; ``log_like`` is −inf where a row is not finite or Σ is not
-        positive definite.
+        Shape ``(batch,)``; ``log_like`` is −inf where a row is not finite or an onset has
+        no variance.
     """
     batch = impacts.shape[0]
-    log_like = np.full(batch, -np.inf)
-    t0_mean = np.full(batch, np.nan)
-    t0_sd = np.full(batch, np.nan)
-    good = np.flatnonzero(np.isfinite(impacts).all(axis=1)
-                          & np.isfinite(covariance).all(axis=(1, 2)))
-    parts = _by_rows(lambda rows: _bordered(data, impacts[rows], covariance[rows]), good)
-    n = data.n_onsets
-    for rows, (q_rr, q_r1, q_11, log_det, centre) in parts:
-        log_like[rows] = t0_marginal(q_rr - q_r1**2 / q_11, log_det, q_11, n)
-        t0_mean[rows] = centre + q_r1 / q_11
-        t0_sd[rows] = 1.0 / np.sqrt(q_11)
-    return np.where(np.isfinite(log_like), log_like, -np.inf), t0_mean, t0_sd
+    residual = data.times - data.at_onsets(impacts)
+    centre = residual.mean(axis=1)  # T0 is flat: centring only spares the round-off
+    observed = np.stack([residual - centre[:, None], np.ones_like(residual)])  # (2, batch, n)
+    noise = np.asarray(jitter, float)[:, None] ** 2 + data.sigmas**2
+    s2 = np.asarray(scatter, float) ** 2
+    onset_at = np.full(data.n_flights + 1, -1)
+    onset_at[data.bounces] = np.arange(data.n_onsets)
+    mean_w, mean_d = np.zeros((2, batch)), np.zeros((2, batch))  # for r, and for 1
+    p_ww, p_wd, p_dd = np.zeros(batch), np.zeros(batch), np.zeros(batch)
+    q_rr, q_r1, q_11 = np.zeros(batch), np.zeros(batch), np.zeros(batch)  # r'Σ⁻¹r, …
+    variances = []  # the innovations' F_i: log|Σ| = Σ log F_i
+    with np.errstate(divide="ignore", invalid="ignore"):  # a row without variance: −inf
+        for k in range(data.n_flights + 1):
+            if k:
+                slope = slopes[:, k - 1]
+                if propagation is None:
+                    mean_d = mean_d + slope * mean_w
+                    p_dd = p_dd + slope * (2.0 * p_wd + slope * p_ww) + s2 * slope * slope
+                    p_wd = p_wd + slope * p_ww + s2 * slope
+                    p_ww = p_ww + s2
+                else:
+                    a = propagation[:, k - 1]
+                    b = slope * a
+                    mean_d = mean_d + b * mean_w
+                    mean_w = a * mean_w
+                    p_dd = p_dd + b * (2.0 * p_wd + b * p_ww) + s2 * slope * slope
+                    p_wd = a * (p_wd + b * p_ww) + s2 * slope
+                    p_ww = a * a * p_ww + s2
+            i = onset_at[k]
+            if i < 0:
+                continue
+            f = p_dd + noise[:, i]
+            variances.append(f)
+            innovation = observed[:, :, i] - mean_d
+            weighted = innovation / f
+            q_rr += innovation[0] * weighted[0]
+            q_r1 += innovation[0] * weighted[1]
+            q_11 += innovation[1] * weighted[1]
+            mean_w = mean_w + p_wd * weighted
+            mean_d = mean_d + p_dd * weighted
+            share = noise[:, i] / f
+            p_ww = p_ww - p_wd * p_wd / f
+            p_wd = p_wd * share
+            p_dd = p_dd * share
+        log_det = np.log(np.stack(variances)).sum(axis=0)
+        log_like = t0_marginal(q_rr - q_r1**2 / q_11, log_det, q_11, data.n_onsets)
+        t0_mean = centre + q_r1 / q_11
+        t0_sd = 1.0 / np.sqrt(q_11)
+    ok = np.isfinite(log_like)
+    return (np.where(ok, log_like, -np.inf), np.where(ok, t0_mean, np.nan),
+            np.where(ok, t0_sd, np.nan))
 
 
 def _by_rows(solve: Callable[[NDArray], Any], good: NDArray) -> list[tuple[NDArray, Any]]:
