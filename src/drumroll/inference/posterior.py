@@ -22,9 +22,9 @@ from drumroll.inference.likelihood import (
 from drumroll.inference.scatter import (
     dense_marginal,
     onset_covariance,
-    scatter_conditional_pointwise,
     scatter_marginal,
     scatter_noise,
+    scatter_pointwise,
     scatter_spread,
     student_t_laplace,
     student_t_laplace_pointwise,
@@ -295,22 +295,29 @@ def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts
                                 rng: np.random.Generator, chunk: int = 512
                                 ) -> tuple[NDArray, NDArray]:
     """LOO's conditional terms log p(t_i | t_{−i}, θ) and one draw of the onsets' noise per
-    row, under a scattering restitution (Σ per row, built in chunks so that thousands of draws
-    of a long roll never hold all their n × n matrices at once); under Student-t noise by
-    Laplace's method (:mod:`~drumroll.inference.scatter`).
+    row, under a scattering restitution, in chunks of rows: under Gaussian noise along the
+    roll, O(K) per row (:func:`~drumroll.inference.scatter.scatter_pointwise`,
+    :func:`~drumroll.inference.scatter.scatter_noise`); under Student-t noise by Laplace's
+    method from Σ (:mod:`~drumroll.inference.scatter`; the chunks keep thousands of draws of
+    a long roll from holding all their n × n matrices at once).
 
     ``impacts`` are the rows' τ_0 … τ_K (from the full forward model)."""
-    pointwise = np.empty((x.shape[0], log_posterior.data.n_onsets))
+    data, space = log_posterior.data, log_posterior.space
+    pointwise = np.empty((x.shape[0], data.n_onsets))
     noise = np.empty_like(pointwise)
     for start in range(0, x.shape[0], chunk):
         rows = slice(start, start + chunk)
-        _, covariance, _ = log_posterior.onset_covariance(x[rows])
         if log_posterior.noise == "gaussian":
-            pointwise[rows] = scatter_conditional_pointwise(log_posterior.data, impacts[rows],
-                                                            covariance)
-            noise[rows] = scatter_noise(covariance, rng)
+            _, slopes, propagation, _ = space.impacts_and_slopes(x[rows], data.n_flights)
+            size = slopes.shape[0]
+            jitter = np.broadcast_to(space.value(x[rows], "jitter"), size)
+            scatter = np.broadcast_to(space.value(x[rows], SCATTER), size)
+            pointwise[rows] = scatter_pointwise(data, impacts[rows], slopes, jitter, scatter,
+                                                propagation)
+            noise[rows] = scatter_noise(data, slopes, jitter, scatter, propagation, rng)
             continue
-        values = log_posterior.space.values(x[rows])
+        _, covariance, _ = log_posterior.onset_covariance(x[rows])
+        values = space.values(x[rows])
         residual, scale2 = log_posterior._student_t_parts(values, impacts[rows])
         spread = scatter_spread(covariance, scale2)
         pointwise[rows] = student_t_laplace_pointwise(residual, spread, scale2, values["nu"])

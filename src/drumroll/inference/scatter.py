@@ -21,11 +21,12 @@ and T0, under its flat prior, is integrated out as in :func:`~.likelihood.gaussi
 (which this equals when s = 0). The linearisation's error, against drawing the ε and running
 the exact flights, is measured in tests/unit/inference/test_scatter.py.
 
-Σ is never formed for the likelihood: the walk is a Markov chain from bounce to bounce, and a
-Kalman filter along the roll (:func:`scatter_marginal`) gives r'Σ⁻¹r, 1'Σ⁻¹r, 1'Σ⁻¹1 and
-log|Σ| from the innovations, exactly, in O(K) per parameter point. Σ itself
-(:func:`onset_covariance`) serves LOO's conditional terms, the replicated onsets and the
-Student-t case below, once per draw after sampling.
+Under Gaussian noise Σ is never formed: the walk is a Markov chain from bounce to bounce, and
+a Kalman filter along the roll (:func:`scatter_marginal`) gives r'Σ⁻¹r, 1'Σ⁻¹r, 1'Σ⁻¹1 and
+log|Σ| from its innovations, exactly, in O(K) per parameter point; one pass back along the
+roll adds Σ⁻¹r, Σ⁻¹1 and Σ⁻¹'s diagonal, LOO's terms (:func:`scatter_pointwise`), and the
+replicated onsets are the walk drawn bounce by bounce (:func:`scatter_noise`). Σ itself
+(:func:`onset_covariance`) serves the Student-t case below and the tests' dense references.
 
 Under Student-t onset noise the ε cannot be integrated out in closed form: the onsets are
 t_i = T0 + τ_{k_i} + (G ε)_i + e_i with e_i ~ t_ν(0, σ_i) independent. Writing ε = s z,
@@ -59,6 +60,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -147,13 +149,103 @@ def dense_marginal(data: OnsetData, impacts: NDArray, covariance: NDArray
     return out[0], out[1], out[2]
 
 
+@dataclass(frozen=True)
+class _Filtered:
+    """A Kalman filter's pass along a roll (:func:`_filter`), per row of a batch: the
+    Gaussian's quadratic forms and log|Σ|, and, kept for the backward pass of
+    :func:`scatter_pointwise`, each onset's innovation variance F_i, innovations ν_i of the
+    residuals and of the vector of ones, filter gain M_i = P_i Zᵀ / F_i (its w and d parts),
+    and the state's transition Φ_i from onset i's bounce to the next onset's (its w→w and
+    w→d entries; Φ is lower triangular with 1 for d→d)."""
+
+    q_rr: NDArray
+    q_r1: NDArray
+    q_11: NDArray
+    log_det: NDArray
+    centre: NDArray
+    variance: NDArray | None = None  # (n, batch)
+    innovation: NDArray | None = None  # (n, 2, batch)
+    gain: NDArray | None = None  # (n, 2, batch): M_w, M_d
+    transition: NDArray | None = None  # (n, 2, batch): Φ_ww, Φ_dw to the next onset
+
+
+def _filter(data: OnsetData, impacts: NDArray, slopes: NDArray, jitter: NDArray,
+            scatter: NDArray, propagation: NDArray | None, keep: bool = False) -> _Filtered:
+    """The Kalman filter of :func:`scatter_marginal` (its docstring), keeping each onset's
+    quantities for a backward pass when ``keep``."""
+    batch, n = impacts.shape[0], data.n_onsets
+    residual = data.times - data.at_onsets(impacts)
+    centre = residual.mean(axis=1)  # T0 is flat: centring only spares the round-off
+    observed = np.stack([residual - centre[:, None], np.ones_like(residual)])  # (2, batch, n)
+    noise = np.asarray(jitter, float)[:, None] ** 2 + data.sigmas**2
+    s2 = np.asarray(scatter, float) ** 2
+    onset_at = np.full(data.n_flights + 1, -1)
+    onset_at[data.bounces] = np.arange(n)
+    mean_w, mean_d = np.zeros((2, batch)), np.zeros((2, batch))  # for r, and for 1
+    p_ww, p_wd, p_dd = np.zeros(batch), np.zeros(batch), np.zeros(batch)
+    q_rr, q_r1, q_11 = np.zeros(batch), np.zeros(batch), np.zeros(batch)  # r'Σ⁻¹r, …
+    variances, innovations, gains, transitions = [], [], [], []
+    phi_ww, phi_dw = np.ones(batch), np.zeros(batch)  # Φ since the last onset
+    with np.errstate(divide="ignore", invalid="ignore"):  # a row without variance: −inf
+        for k in range(data.n_flights + 1):
+            if k:
+                slope = slopes[:, k - 1]
+                if propagation is None:
+                    mean_d = mean_d + slope * mean_w
+                    p_dd = p_dd + slope * (2.0 * p_wd + slope * p_ww) + s2 * slope * slope
+                    p_wd = p_wd + slope * p_ww + s2 * slope
+                    p_ww = p_ww + s2
+                    if keep:
+                        phi_dw = phi_dw + slope * phi_ww
+                else:
+                    a = propagation[:, k - 1]
+                    b = slope * a
+                    mean_d = mean_d + b * mean_w
+                    mean_w = a * mean_w
+                    p_dd = p_dd + b * (2.0 * p_wd + b * p_ww) + s2 * slope * slope
+                    p_wd = a * (p_wd + b * p_ww) + s2 * slope
+                    p_ww = a * a * p_ww + s2
+                    if keep:
+                        phi_dw = phi_dw + b * phi_ww
+                        phi_ww = a * phi_ww
+            i = onset_at[k]
+            if i < 0:
+                continue
+            if keep:
+                if i:  # Φ_{i−1}: from the last onset's bounce to this one's
+                    transitions.append((phi_ww, phi_dw))
+                phi_ww, phi_dw = np.ones(batch), np.zeros(batch)
+            f = p_dd + noise[:, i]
+            innovation = observed[:, :, i] - mean_d
+            weighted = innovation / f
+            q_rr += innovation[0] * weighted[0]
+            q_r1 += innovation[0] * weighted[1]
+            q_11 += innovation[1] * weighted[1]
+            variances.append(f)
+            if keep:
+                innovations.append(innovation)
+                gains.append((p_wd / f, p_dd / f))
+            mean_w = mean_w + p_wd * weighted
+            mean_d = mean_d + p_dd * weighted
+            share = noise[:, i] / f
+            p_ww = p_ww - p_wd * p_wd / f
+            p_wd = p_wd * share
+            p_dd = p_dd * share
+        log_det = np.log(np.stack(variances)).sum(axis=0)
+    if not keep:
+        return _Filtered(q_rr, q_r1, q_11, log_det, centre)
+    transitions.append((np.ones(batch), np.zeros(batch)))  # past the last onset: unused
+    return _Filtered(q_rr, q_r1, q_11, log_det, centre, np.stack(variances),
+                     np.stack(innovations), np.array(gains), np.array(transitions))
+
+
 def scatter_marginal(data: OnsetData, impacts: NDArray, slopes: NDArray, jitter: NDArray,
                      scatter: NDArray, propagation: NDArray | None = None
                      ) -> tuple[NDArray, NDArray, NDArray]:
     """Log-likelihood with the ε and T0 marginalised, and T0's conditional mean and sd:
     the Gaussian of Σ (:func:`onset_covariance`) without forming Σ, by a Kalman filter along
     the roll, O(K) per row where a Cholesky factor of Σ costs O(n³) (at 55 onsets and 64
-    walkers a fifth of the time; at a start search's 10,000 points a twentieth).
+    walkers a third of the time; at a start search's 10,000 points a thirtieth).
 
     The scatter's effect is a Markov chain from bounce to bounce. With w_k the change of
     u_k = Σ_{j≤k} ln α_j and d_k that of impact k's time (w_0 = d_0 = 0),
@@ -185,58 +277,87 @@ def scatter_marginal(data: OnsetData, impacts: NDArray, slopes: NDArray, jitter:
         Shape ``(batch,)``; ``log_like`` is −inf where a row is not finite or an onset has
         no variance.
     """
-    batch = impacts.shape[0]
-    residual = data.times - data.at_onsets(impacts)
-    centre = residual.mean(axis=1)  # T0 is flat: centring only spares the round-off
-    observed = np.stack([residual - centre[:, None], np.ones_like(residual)])  # (2, batch, n)
-    noise = np.asarray(jitter, float)[:, None] ** 2 + data.sigmas**2
-    s2 = np.asarray(scatter, float) ** 2
-    onset_at = np.full(data.n_flights + 1, -1)
-    onset_at[data.bounces] = np.arange(data.n_onsets)
-    mean_w, mean_d = np.zeros((2, batch)), np.zeros((2, batch))  # for r, and for 1
-    p_ww, p_wd, p_dd = np.zeros(batch), np.zeros(batch), np.zeros(batch)
-    q_rr, q_r1, q_11 = np.zeros(batch), np.zeros(batch), np.zeros(batch)  # r'Σ⁻¹r, …
-    variances = []  # the innovations' F_i: log|Σ| = Σ log F_i
-    with np.errstate(divide="ignore", invalid="ignore"):  # a row without variance: −inf
-        for k in range(data.n_flights + 1):
-            if k:
-                slope = slopes[:, k - 1]
-                if propagation is None:
-                    mean_d = mean_d + slope * mean_w
-                    p_dd = p_dd + slope * (2.0 * p_wd + slope * p_ww) + s2 * slope * slope
-                    p_wd = p_wd + slope * p_ww + s2 * slope
-                    p_ww = p_ww + s2
-                else:
-                    a = propagation[:, k - 1]
-                    b = slope * a
-                    mean_d = mean_d + b * mean_w
-                    mean_w = a * mean_w
-                    p_dd = p_dd + b * (2.0 * p_wd + b * p_ww) + s2 * slope * slope
-                    p_wd = a * (p_wd + b * p_ww) + s2 * slope
-                    p_ww = a * a * p_ww + s2
-            i = onset_at[k]
-            if i < 0:
-                continue
-            f = p_dd + noise[:, i]
-            variances.append(f)
-            innovation = observed[:, :, i] - mean_d
-            weighted = innovation / f
-            q_rr += innovation[0] * weighted[0]
-            q_r1 += innovation[0] * weighted[1]
-            q_11 += innovation[1] * weighted[1]
-            mean_w = mean_w + p_wd * weighted
-            mean_d = mean_d + p_dd * weighted
-            share = noise[:, i] / f
-            p_ww = p_ww - p_wd * p_wd / f
-            p_wd = p_wd * share
-            p_dd = p_dd * share
-        log_det = np.log(np.stack(variances)).sum(axis=0)
-        log_like = t0_marginal(q_rr - q_r1**2 / q_11, log_det, q_11, data.n_onsets)
-        t0_mean = centre + q_r1 / q_11
-        t0_sd = 1.0 / np.sqrt(q_11)
+    run = _filter(data, impacts, slopes, jitter, scatter, propagation)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_like = t0_marginal(run.q_rr - run.q_r1**2 / run.q_11, run.log_det, run.q_11,
+                               data.n_onsets)
+        t0_mean = run.centre + run.q_r1 / run.q_11
+        t0_sd = 1.0 / np.sqrt(run.q_11)
     ok = np.isfinite(log_like)
     return (np.where(ok, log_like, -np.inf), np.where(ok, t0_mean, np.nan),
             np.where(ok, t0_sd, np.nan))
+
+
+def scatter_pointwise(data: OnsetData, impacts: NDArray, slopes: NDArray, jitter: NDArray,
+                      scatter: NDArray, propagation: NDArray | None = None) -> NDArray:
+    """log p(t_i | t_{−i}, θ) per row and onset, shape ``(batch, n_onsets)``: the terms
+    PSIS-LOO needs for a non-factorised Gaussian (Bürkner, Gabry & Vehtari 2021).
+
+    With T0 flat and integrated out, the residuals r have the (improper) precision
+    P = Σ⁻¹ − Σ⁻¹11ᵀΣ⁻¹ / (1ᵀΣ⁻¹1), and the conditional of r_i given the others is
+    N(r_i − (P r)_i / P_ii, 1 / P_ii); with Σ diagonal this is
+    :func:`~drumroll.inference.loo.conditional_pointwise`. Σ⁻¹r, Σ⁻¹1 and the diagonal of
+    Σ⁻¹ come from the filter of :func:`scatter_marginal` and one pass back along the roll,
+    O(K) per row. The filter maps the onsets y to its innovations ν = L⁻¹y through the
+    predicted state â_{i+1} = A_i â_i + B_i y_i, ν_i = y_i − Z â_i (A_i = Φ_i (I − M_i Z),
+    B_i = Φ_i M_i, Z = (0, 1): the state's d); so Σ⁻¹y = L⁻ᵀ F⁻¹ ν is that map's adjoint
+    applied to g = F⁻¹ν,
+
+        u_i = g_i + B_iᵀ λ_{i+1},    λ_i = A_iᵀ λ_{i+1} − Zᵀ g_i    (λ_{n+1} = 0),
+
+    and (Σ⁻¹)_ii = Σ_j (∂ν_j/∂y_i)² / F_j = 1/F_i + B_iᵀ N_{i+1} B_i with
+    N_i = ZᵀZ / F_i + A_iᵀ N_{i+1} A_i (N_{n+1} = 0).
+    """
+    run = _filter(data, impacts, slopes, jitter, scatter, propagation, keep=True)
+    batch, n = impacts.shape[0], data.n_onsets
+    solved = np.empty((2, batch, n))  # Σ⁻¹r, Σ⁻¹1
+    diagonal = np.empty((batch, n))
+    lam_w, lam_d = np.zeros((2, batch)), np.zeros((2, batch))
+    n_ww, n_wd, n_dd = np.zeros(batch), np.zeros(batch), np.zeros(batch)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for i in range(n - 1, -1, -1):
+            f = run.variance[i]
+            g = run.innovation[i] / f
+            m_w, m_d = run.gain[i]
+            phi_ww, phi_dw = run.transition[i]
+            b_w, b_d = phi_ww * m_w, phi_dw * m_w + m_d  # B_i = Φ_i M_i
+            solved[:, :, i] = g + b_w * lam_w + b_d * lam_d
+            diagonal[:, i] = 1.0 / f + b_w * (b_w * n_ww + 2.0 * b_d * n_wd) + b_d * b_d * n_dd
+            # A_i = [[Φww, −Φww m_w], [Φdw, 1 − m_d − Φdw m_w]]
+            a_ww, a_wd = phi_ww, -phi_ww * m_w
+            a_dw, a_dd = phi_dw, 1.0 - m_d - phi_dw * m_w
+            lam_w, lam_d = a_ww * lam_w + a_dw * lam_d, a_wd * lam_w + a_dd * lam_d - g
+            # N_i = ZᵀZ / F_i + A_iᵀ N_{i+1} A_i
+            t_ww = n_ww * a_ww + n_wd * a_dw  # (N A) columns
+            t_dw = n_wd * a_ww + n_dd * a_dw
+            t_wd = n_ww * a_wd + n_wd * a_dd
+            t_dd = n_wd * a_wd + n_dd * a_dd
+            n_ww, n_wd, n_dd = (a_ww * t_ww + a_dw * t_dw, a_ww * t_wd + a_dw * t_dd,
+                                a_wd * t_wd + a_dd * t_dd + 1.0 / f)
+        solved_r, solved_1 = solved
+        total = solved_1.sum(axis=1)  # 1ᵀΣ⁻¹1
+        p_r = solved_r - solved_1 * (solved_r.sum(axis=1) / total)[:, None]
+        p_ii = diagonal - solved_1**2 / total[:, None]
+        return 0.5 * (np.log(p_ii) - _LOG_2PI) - 0.5 * p_r**2 / p_ii
+
+
+def scatter_noise(data: OnsetData, slopes: NDArray, jitter: NDArray, scatter: NDArray,
+                  propagation: NDArray | None, rng: np.random.Generator) -> NDArray:
+    """One draw of the onsets' noise per row, N(0, Σ), shape ``(batch, n_onsets)``: the
+    restitution's ε_k drawn bounce by bounce and carried through the walk of
+    :func:`scatter_marginal` (w by its recursion, d by the flights' slopes), plus the
+    independent timing noise: O(K) per row, and Σ's own distribution exactly."""
+    batch = slopes.shape[0]
+    eps = np.asarray(scatter, float)[:, None] * rng.standard_normal(slopes.shape)
+    if propagation is None:
+        walk = np.cumsum(eps, axis=1)
+    else:  # w_k = P_k Σ_{j≤k} ε_j / P_j, P_k = Π_{i≤k} p_i
+        carried = np.cumprod(propagation, axis=1)
+        walk = carried * np.cumsum(eps / carried, axis=1)
+    moved = np.zeros((batch, slopes.shape[1] + 1))
+    np.cumsum(slopes * walk, axis=1, out=moved[:, 1:])  # d_0 … d_K
+    scale = np.sqrt(np.asarray(jitter, float)[:, None] ** 2 + data.sigmas**2)
+    return data.at_onsets(moved) + scale * rng.standard_normal(scale.shape)
 
 
 def _by_rows(solve: Callable[[NDArray], Any], good: NDArray) -> list[tuple[NDArray, Any]]:
@@ -256,32 +377,6 @@ def _by_rows(solve: Callable[[NDArray], Any], good: NDArray) -> list[tuple[NDArr
             except np.linalg.LinAlgError:
                 continue
         return parts
-
-
-def scatter_conditional_pointwise(data: OnsetData, impacts: NDArray, covariance: NDArray
-                                  ) -> NDArray:
-    """log p(t_i | t_{−i}, θ) per row and onset, shape ``(batch, n_onsets)``: the terms
-    PSIS-LOO needs for a non-factorised Gaussian (Bürkner, Gabry & Vehtari 2021).
-
-    With T0 flat and integrated out, the residuals r have the (improper) precision
-    P = Σ⁻¹ − Σ⁻¹11ᵀΣ⁻¹ / (1ᵀΣ⁻¹1), and the conditional of r_i given the others is
-    N(r_i − (P r)_i / P_ii, 1 / P_ii); with Σ diagonal this is
-    :func:`~drumroll.inference.loo.conditional_pointwise`.
-    """
-    residual = data.times - data.at_onsets(impacts)
-    precision = np.linalg.inv(covariance)
-    column = precision.sum(axis=2)  # Σ⁻¹1
-    total = column.sum(axis=1)  # 1ᵀΣ⁻¹1
-    projected = precision - column[:, :, None] * column[:, None, :] / total[:, None, None]
-    p_r = np.einsum("bij,bj->bi", projected, residual)
-    p_ii = np.diagonal(projected, axis1=1, axis2=2)
-    return 0.5 * (np.log(p_ii) - _LOG_2PI) - 0.5 * p_r**2 / p_ii
-
-
-def scatter_noise(covariance: NDArray, rng: np.random.Generator) -> NDArray:
-    """One draw of the onsets' noise per row, N(0, Σ), shape ``(batch, n_onsets)``."""
-    factor = np.linalg.cholesky(covariance)
-    return np.einsum("bij,bj->bi", factor, rng.standard_normal(covariance.shape[:2]))
 
 
 #: Most Newton steps of :func:`student_t_laplace`, and the change of every residual (in units

@@ -19,8 +19,9 @@ from drumroll.inference.posterior import LogPosterior
 from drumroll.inference.scatter import (
     dense_marginal,
     onset_covariance,
-    scatter_conditional_pointwise,
     scatter_marginal,
+    scatter_noise,
+    scatter_pointwise,
     student_t_laplace,
     student_t_laplace_pointwise,
     student_t_scatter_noise,
@@ -49,12 +50,11 @@ def _roll(gaps: bool = False, seed: int = 0) -> tuple[OnsetData, np.ndarray, np.
 def test_no_scatter_is_the_independent_likelihood_and_its_loo_terms(gaps):
     data, impacts, slopes = _roll(gaps)
     jitter = np.array([1e-4, 2e-4, 5e-5])
-    covariance = onset_covariance(data, slopes, jitter, np.zeros(3))
     got = scatter_marginal(data, impacts, slopes, jitter, np.zeros(3))
     want = gaussian_marginal(data, impacts, jitter)
     for g, w in zip(got, want, strict=True):
         np.testing.assert_allclose(g, w, rtol=1e-9)
-    np.testing.assert_allclose(scatter_conditional_pointwise(data, impacts, covariance),
+    np.testing.assert_allclose(scatter_pointwise(data, impacts, slopes, jitter, np.zeros(3)),
                                conditional_pointwise(data, impacts, jitter), atol=1e-8)
 
 
@@ -83,7 +83,7 @@ def test_marginal_and_loo_terms_equal_a_dense_normal_with_t0_integrated(gaps):
     jitter, scatter = np.array([1e-4, 3e-4, 1e-4]), np.array([0.003, 0.01, 0.0])
     covariance = onset_covariance(data, slopes, jitter, scatter)
     log_like = scatter_marginal(data, impacts, slopes, jitter, scatter)[0]
-    pointwise = scatter_conditional_pointwise(data, impacts, covariance)
+    pointwise = scatter_pointwise(data, impacts, slopes, jitter, scatter)
     for row in range(3):
         whole = _dense_reference(data, impacts[row], covariance[row])
         assert log_like[row] == pytest.approx(whole, rel=1e-8, abs=1e-6)
@@ -346,6 +346,26 @@ def test_student_t_loo_terms_against_numerical_integration():
         assert terms[i] == pytest.approx(-np.log(area), abs=0.05)
 
 
+@pytest.mark.parametrize("law", ["constant", "speed"])
+def test_gaussian_noise_draws_have_the_covariance(law):
+    """The replicated noise, drawn bounce by bounce along the walk: Σ's normal (with a bounce
+    missing and one impact missed before the first onset)."""
+    rng = np.random.default_rng(9)
+    bounces = np.setdiff1d(np.arange(13), [5])
+    data = shifted(OnsetData.from_arrays(np.arange(bounces.size) * 0.1,
+                                         rng.uniform(0, 1e-4, bounces.size), bounces), 1)
+    k_max = data.n_flights
+    slopes = np.repeat(0.25 * 0.9 ** np.arange(1, k_max + 1)[None, :], 40_000, axis=0)
+    propagation = None if law == "constant" else np.repeat(
+        rng.uniform(0.9, 1.05, (1, k_max)), 40_000, axis=0)
+    jitter, scatter = np.full(40_000, 2e-4), np.full(40_000, 0.004)
+    draws = scatter_noise(data, slopes, jitter, scatter, propagation, rng)
+    expected = onset_covariance(data, slopes[:1], jitter[:1], scatter[:1],
+                                None if propagation is None else propagation[:1])[0]
+    scale = np.sqrt(np.outer(expected.diagonal(), expected.diagonal()))
+    assert np.max(np.abs(np.cov(draws.T) - expected) / scale) < 0.03
+
+
 def test_student_t_noise_draws_have_the_scatter_and_the_t():
     """The replicated noise: the walk's covariance S plus t noise of variance ν/(ν−2) σ²."""
     _, g, scale2 = _student_t_case(0.002, 1e-4, 6.0, 0.0, 0)
@@ -412,6 +432,17 @@ def test_the_filter_is_the_dense_normal_of_the_covariance(law, missed):
     want = dense_marginal(data, impacts, covariance)
     for g, w in zip(got, want, strict=True):
         np.testing.assert_allclose(g, w, rtol=1e-9)
+    # LOO's terms: the conditionals of Σ's normal with T0 integrated, from its inverse.
+    precision = np.linalg.inv(covariance)
+    column = precision.sum(axis=2)
+    projected = precision - column[:, :, None] * column[:, None, :] / column.sum(axis=1)[
+        :, None, None]
+    residual = data.times - data.at_onsets(impacts)
+    p_r = np.einsum("bij,bj->bi", projected, residual)
+    p_ii = np.diagonal(projected, axis1=1, axis2=2)
+    want_terms = 0.5 * np.log(p_ii / (2 * np.pi)) - 0.5 * p_r**2 / p_ii
+    np.testing.assert_allclose(scatter_pointwise(data, impacts, slopes, jitter, scatter,
+                                                 propagation), want_terms, rtol=1e-8, atol=1e-8)
     # scipy's normal with a wide proper prior on T0 (see _dense_reference) is precise to
     # ~1e-6 nat here; with impacts missed before the first onset its extrapolation in the
     # prior's width leaves ~1e-5, so there the dense solves are the reference.
