@@ -64,6 +64,27 @@ def t0_window(data: OnsetData) -> tuple[float, float]:
 
 
 @dataclass(frozen=True)
+class Walk:
+    """What a scattering restitution's walk needs of a batch of parameter points
+    (:mod:`~drumroll.inference.scatter`): impact times τ_0 … τ_K ``(batch, K + 1)``, the
+    flights' slopes ∂T_k/∂u_k and the law's propagation ∂u_k/∂u_{k−1} ``(batch, K)`` (None
+    for a constant α), where the point is valid, and σ and s ``(batch,)``."""
+
+    impacts: NDArray
+    slopes: NDArray
+    propagation: NDArray | None
+    valid: NDArray
+    jitter: NDArray
+    scatter: NDArray
+
+    def rows(self, index: NDArray) -> Walk:
+        """The same of the rows ``index`` (a mask or indices)."""
+        return Walk(self.impacts[index], self.slopes[index],
+                    None if self.propagation is None else self.propagation[index],
+                    self.valid[index], self.jitter[index], self.scatter[index])
+
+
+@dataclass(frozen=True)
 class LogPosterior:
     """Unnormalised log posterior of one model given the onsets.
 
@@ -114,19 +135,25 @@ class LogPosterior:
         :mod:`~drumroll.inference.scatter`)."""
         return self._scatter
 
-    def onset_covariance(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        """Impact times τ_0 … τ_K, the onsets' covariance Σ and validity per row of ``x``
-        under a scattering restitution, shapes ``(batch, K + 1)``, ``(batch, n, n)``,
-        ``(batch,)``."""
+    def walk(self, x: NDArray) -> Walk:
+        """What the scattering restitution's walk needs, per row of ``x`` (:class:`Walk`)."""
         x = np.atleast_2d(np.asarray(x, float))
         impacts, slopes, propagation, valid = self.space.impacts_and_slopes(
             x, self.data.n_flights)
         rows = x.shape[0]
+        return Walk(impacts, slopes, propagation, valid,
+                    np.broadcast_to(self.space.value(x, "jitter"), rows),
+                    np.broadcast_to(self.space.value(x, SCATTER), rows))
+
+    def onset_covariance(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """Impact times τ_0 … τ_K, the onsets' covariance Σ and validity per row of ``x``
+        under a scattering restitution, shapes ``(batch, K + 1)``, ``(batch, n, n)``,
+        ``(batch,)``."""
+        w = self.walk(x)
         with np.errstate(all="ignore"):
-            covariance = onset_covariance(
-                self.data, slopes, np.broadcast_to(self.space.value(x, "jitter"), rows),
-                np.broadcast_to(self.space.value(x, SCATTER), rows), propagation)
-        return impacts, covariance, valid
+            covariance = onset_covariance(self.data, w.slopes, w.jitter, w.scatter,
+                                          w.propagation)
+        return w.impacts, covariance, w.valid
 
     def _scatter_marginal(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         """Log-likelihood with the scatter's walk and T0 integrated out, and T0's conditional
@@ -137,16 +164,12 @@ class LogPosterior:
         out = np.full((3, x.shape[0]), np.nan)
         out[0] = -np.inf
         if self.noise == "gaussian":
-            impacts, slopes, propagation, valid = self.space.impacts_and_slopes(
-                x, self.data.n_flights)
-            if valid.any():
-                rows = x[valid]
+            w = self.walk(x)
+            if w.valid.any():
+                v = w.rows(w.valid)
                 with np.errstate(all="ignore"):
-                    out[:, valid] = scatter_marginal(
-                        self.data, impacts[valid], slopes[valid],
-                        np.broadcast_to(self.space.value(rows, "jitter"), rows.shape[0]),
-                        np.broadcast_to(self.space.value(rows, SCATTER), rows.shape[0]),
-                        None if propagation is None else propagation[valid])
+                    out[:, w.valid] = scatter_marginal(self.data, v.impacts, v.slopes,
+                                                       v.jitter, v.scatter, v.propagation)
             return out[0], out[1], out[2]
         impacts, covariance, valid = self.onset_covariance(x)
         if valid.any():
@@ -308,13 +331,10 @@ def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts
     for start in range(0, x.shape[0], chunk):
         rows = slice(start, start + chunk)
         if log_posterior.noise == "gaussian":
-            _, slopes, propagation, _ = space.impacts_and_slopes(x[rows], data.n_flights)
-            size = slopes.shape[0]
-            jitter = np.broadcast_to(space.value(x[rows], "jitter"), size)
-            scatter = np.broadcast_to(space.value(x[rows], SCATTER), size)
-            pointwise[rows] = scatter_pointwise(data, impacts[rows], slopes, jitter, scatter,
-                                                propagation)
-            noise[rows] = scatter_noise(data, slopes, jitter, scatter, propagation, rng)
+            w = log_posterior.walk(x[rows])
+            pointwise[rows] = scatter_pointwise(data, impacts[rows], w.slopes, w.jitter,
+                                                w.scatter, w.propagation)
+            noise[rows] = scatter_noise(data, w.slopes, w.jitter, w.scatter, w.propagation, rng)
             continue
         _, covariance, _ = log_posterior.onset_covariance(x[rows])
         values = space.values(x[rows])
