@@ -171,8 +171,13 @@ class SamplerCoordinates:
         residual = data.times - data.at_onsets(impacts)
         return (weight * residual).sum(axis=1) / sum_w, 1.0 / np.sqrt(sum_w)
 
-    def to_sampler(self, x: NDArray) -> NDArray:
-        """z of each row of the parameters ``x`` (NaN where x is invalid)."""
+    def to_sampler(self, x: NDArray, *, t0_centred: bool = False) -> NDArray:
+        """z of each row of the parameters ``x`` (NaN where x is invalid).
+
+        With ``t0_centred``, a sampled T0 is put at its best value given the rest (offset
+        δ = 0) whatever ``x`` says, and the forward model, which only δ needs, is not run:
+        the start search's prior draws (:func:`~drumroll.inference.sampling.find_start`),
+        whose density is then evaluated anyway."""
         x = np.atleast_2d(np.asarray(x, float))
         z = x.copy()
         with np.errstate(all="ignore"):
@@ -182,13 +187,15 @@ class SamplerCoordinates:
                 gamma, arm, omega0, theta0 = self._gamma_arm_speed(x)
                 theta_c = self.space.forward.contact_angle(x[:, self._height] / arm)
                 z[:, self._height] = np.sqrt(omega0**2 + 2.0 * gamma * (theta_c - theta0)) / gamma
-            if self._t0 is not None:
+            if self._t0 is not None and not t0_centred:
                 impacts, valid = self.space.impacts(x, self.data.n_flights)
                 centre, scale = self._t0_centre(x, impacts)
                 z[:, self._t0] = np.where(valid, (x[:, self._t0] - centre) / scale, np.nan)
             for i, stretch, ridge in zip(self._atoms, self._stretch, self._ridges, strict=True):
                 z -= np.maximum(x[:, i], 0.0)[:, None] * ridge
                 z[:, i] = np.where(x[:, i] < 0.0, x[:, i] / stretch, x[:, i])
+        if self._t0 is not None and t0_centred:
+            z[:, self._t0] = 0.0
         return z
 
     def to_parameters(self, z: NDArray) -> tuple[NDArray, NDArray]:

@@ -181,10 +181,7 @@ def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 
         The best point found, in z, shape ``(ndim,)``.
     """
     space = target.log_posterior.space
-    z = target.coordinates.to_sampler(space.sample_prior(rng, n_candidates))
-    t0 = target.coordinates.t0_column
-    if t0 is not None:
-        z[:, t0] = 0.0
+    z = target.coordinates.to_sampler(space.sample_prior(rng, n_candidates), t0_centred=True)
     density = target(z)
     finite = np.isfinite(density)
     if not finite.any():

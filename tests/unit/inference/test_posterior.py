@@ -362,3 +362,26 @@ def test_one_point_coordinates_equal_the_batch_map(model, variant, noise):
         if one[2] is not None:
             np.testing.assert_allclose(one[2], lp.space.impacts(batch_x[row:row + 1],
                                                                 lp.data.n_flights)[0][0])
+
+
+@pytest.mark.parametrize(("model", "variant"), [("pendulum", "release"), ("powerlaw", "table1")])
+def test_start_search_coordinates_put_t0_at_its_best_value(model, variant):
+    """``to_sampler(x, t0_centred=True)`` (the start search's prior draws, mapped without a
+    forward model) is ``to_sampler(x)`` with T0's offset δ set to 0, as the search had it: every
+    other column the same, bit for bit, and the point maps back to x but for T0, which is
+    the one whose offset is 0 (T0 is sampled under Student-t noise)."""
+    lp = LogPosterior.build(_config(variant), model, _data(True), noise="student-t")
+    coords = SamplerCoordinates(lp.space, lp.data)
+    t0 = coords.t0_column
+    assert t0 is not None
+    x = lp.space.sample_prior(np.random.default_rng(11), 400)
+    x = x[np.isfinite(lp(x))][:30]
+    assert len(x) >= 10
+    centred, plain = coords.to_sampler(x, t0_centred=True), coords.to_sampler(x)
+    others = [j for j in range(lp.space.ndim) if j != t0]
+    np.testing.assert_array_equal(centred[:, others], plain[:, others])
+    np.testing.assert_array_equal(centred[:, t0], 0.0)
+    best = coords.to_parameters(centred)[0]
+    np.testing.assert_allclose(best[:, others], x[:, others], rtol=1e-11)
+    np.testing.assert_allclose(coords.to_sampler(best)[:, t0], 0.0, atol=1e-9)
+    assert np.all(np.abs(best[:, t0] - x[:, t0]) > 0)  # the prior's T0 was moved
