@@ -4,7 +4,8 @@
    compared with small-angle and power law, evidences, every figure), run as a user runs it,
    the working tree and the code of ``--against`` (default be26b5a, checked out into a
    temporary git worktree: nothing is installed, no network) alternately, ``--repeats`` times
-   each. Prints both medians, their ratio, and each one's stages (start-up, sampling and
+   each. Prints both medians, their ratio with the ratios run by run and a bootstrap
+   interval over the pairs of runs, and each one's stages (start-up, sampling and
    evidence per model, writing), and α's effective samples and ESS per second.
 2. The issue's other targets, the same way: a 6-run ``drumroll table`` (the bundled recordings
    of Tables 1 and 2, no cache), ``drumroll onsets`` on a 4 s recording, ``estimate --help``.
@@ -106,6 +107,17 @@ def run_once(src: Path, source: Path, config: Path) -> dict:
     return {"wall": wall, "stages": stages, "alpha": alpha, "preferred": summary["preferred"]}
 
 
+def ratio_interval(ours: np.ndarray, theirs: np.ndarray, level: float = 0.9,
+                   resamples: int = 10_000, seed: int = 0) -> tuple[float, float]:
+    """The bootstrap interval of median(ours) / median(theirs), the alternating runs resampled
+    in pairs (a pair shares the machine's state of the moment: this machine's speed drifts by
+    ±10 % within minutes, so one ratio from five runs each moves by ±0.03)."""
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, ours.size, (resamples, ours.size))
+    ratios = np.median(ours[picks], axis=1) / np.median(theirs[picks], axis=1)
+    return tuple(float(q) for q in np.quantile(ratios, [(1 - level) / 2, (1 + level) / 2]))
+
+
 def main_command(source: Path, config: Path, repeats: int, against: str,
                  goal: float | None = 0.33) -> None:
     """The main command, this tree and ``against`` alternately; medians and their ratio (and
@@ -126,6 +138,13 @@ def main_command(source: Path, config: Path, repeats: int, against: str,
     ratio = medians["this tree"] / medians[against]
     print(f"  ratio this tree / {against}: {ratio:.2f}"
           + ("" if goal is None else f" (goal <= {goal:.2f})"))
+    ours = np.array([r["wall"] for r in runs["this tree"]])
+    theirs = np.array([r["wall"] for r in runs[against]])
+    low, high = ratio_interval(ours, theirs)
+    paired = ours / theirs
+    print(f"  run by run (each run of this tree over the {against} run beside it): median "
+          f"{np.median(paired):.2f}, {paired.min():.2f}-{paired.max():.2f}; the ratio's 90 % "
+          f"bootstrap interval over the pairs {low:.2f}-{high:.2f}")
     print(f"\n  stages of the median run (s)      {'this tree':>10} {against:>10}")
     middle = {label: sorted(rs, key=lambda r: r["wall"])[len(rs) // 2]
               for label, rs in runs.items()}
