@@ -17,7 +17,7 @@ import numpy as np
 from drumroll import fileio
 from drumroll.audio.io import iter_blocks, probe, read_excerpt
 from drumroll.onsets.table import OnsetTable, single_flights
-from drumroll.reporting.plot_style import fixed_margins, write_png
+from drumroll.reporting.plot_style import write_png
 
 #: Points in the overview's min/max envelope (memory stays small for an hour-long file).
 _OVERVIEW_BINS = 4000
@@ -49,10 +49,8 @@ def draw_onset_figure(audio: str | os.PathLike[str], table: OnsetTable):
     info = probe(audio)
     sr = info.sample_rate
     t = table.time_s
-    fig = Figure(figsize=(11, 8.5))
+    fig = Figure(figsize=(11, 8.5), layout="constrained")
     ax_all, ax_zoom, ax_int = fig.subplots(3, 1, height_ratios=[1.1, 1.1, 0.9])
-    # Between rows: the x label and ticks of the row above and the title of the one below.
-    fixed_margins(fig, left=0.85, right=0.2, top=0.35, bottom=0.6, row_gap=0.85)
 
     start, lo, hi = _envelope(audio, info.frames, _OVERVIEW_BINS)
     ax_all.fill_between(start / sr, lo, hi, color="0.35", lw=0, step="post")

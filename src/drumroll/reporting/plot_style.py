@@ -76,26 +76,6 @@ def new_figure(figsize: tuple[float, float], **kwargs: Any):
     return Figure(figsize=figsize, **kwargs)
 
 
-def fixed_margins(fig, *, left: float, right: float, top: float, bottom: float,
-                  row_gap: float = 0.0, column_gap: float = 0.0) -> None:
-    """Place ``fig``'s grid of subplots by margins and gaps given in inches (the gaps between
-    rows and between columns), instead of a layout engine.
-
-    Where every label is known in advance (the registry's symbols, a few digits of ticks),
-    fixed margins draw the same figure; constrained layout measured every text twice and
-    took a quarter to two fifths of a figure's time."""
-    width, height = fig.get_size_inches()
-    grid = next(ax.get_subplotspec().get_gridspec() for ax in fig.axes
-                if ax.get_subplotspec() is not None)
-    rows, columns = grid.get_geometry()
-    # subplots_adjust takes the gaps as fractions of the average axes' height and width.
-    axes_height = (height - top - bottom - (rows - 1) * row_gap) / rows
-    axes_width = (width - left - right - (columns - 1) * column_gap) / columns
-    fig.subplots_adjust(left=left / width, right=1.0 - right / width, top=1.0 - top / height,
-                        bottom=bottom / height, hspace=row_gap / axes_height,
-                        wspace=column_gap / axes_width)
-
-
 def save_figure(fig, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
     """Write ``fig`` as a PNG at :data:`DPI`, atomically.
 

@@ -21,7 +21,6 @@ from drumroll.inference.results import ParameterSummary
 from drumroll.reporting.plot_style import (
     BAND,
     OKABE_ITO,
-    fixed_margins,
     model_color,
     model_name,
     new_figure,
@@ -84,12 +83,9 @@ def draw_trace(idata, stats: Mapping[str, ParameterSummary], max_r_hat: float = 
         xlabel = "draw"
     highlight = np.unique(np.linspace(0, n_chain - 1, min(n_highlight, n_chain)).astype(int))
 
-    fig = new_figure((8.6, 0.62 + 1.45 * len(names) + 0.52))
+    fig = new_figure((8.6, 0.4 + 1.45 * len(names)), layout="constrained")
     axes = np.atleast_2d(fig.subplots(len(names), 2, sharex="col", width_ratios=[4.2, 1],
                                       squeeze=False))
-    # Above each row, a gap for its title; below, the step axis; on the left, the labels.
-    fixed_margins(fig, left=0.95, right=0.12, top=0.62, bottom=0.52, row_gap=0.36,
-                  column_gap=0.07)
     for row, name in enumerate(names):
         ax, ax_hist = axes[row]
         values = np.asarray(idata.posterior[name].values, float)

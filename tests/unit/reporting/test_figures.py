@@ -6,7 +6,6 @@ and seeded, so the whole module runs in a few seconds without a sampler.
 
 from __future__ import annotations
 
-import itertools
 import os
 import struct
 import warnings
@@ -272,19 +271,18 @@ def test_figures_leave_no_pyplot_state(written):
                                                             ".backend_inline"}
 
 
-@pytest.mark.parametrize("key", ["residuals", "corner"])
+@pytest.mark.parametrize("key", ["trace", "corner"])
 def test_one_draw_png_is_savefig_s_file(idatas, inputs, tmp_path, key):
     """plot_style.write_png draws once what savefig draws twice (layout, then render) for a
-    figure with a layout engine (the residuals') and without (the corner plot's): the file is
-    the same, byte for byte."""
+    figure with a layout engine: the file is the same, byte for byte."""
     from drumroll.reporting.corner_plot import draw_corner
-    from drumroll.reporting.residuals import draw_residuals
+    from drumroll.reporting.trace_plot import draw_trace
 
     def draw():
         with plot_style.style():
             if key == "corner":
                 return draw_corner(idatas["pendulum"])
-            return draw_residuals(inputs.summary)
+            return draw_trace(idatas["pendulum"], inputs.summary.parameters)
 
     ours, theirs = tmp_path / "ours.png", tmp_path / "theirs.png"
     with plot_style.style():
@@ -314,54 +312,49 @@ def test_a_bounce_after_a_gap_keeps_its_band():
     assert any(b.x0 == pytest.approx(0.0) and b.x1 == pytest.approx(2.0) for b in boxes)
 
 
-def test_fixed_margins_place_the_grid_in_inches():
-    """Margins and gaps given in inches come out as asked, with unequal row heights too."""
-    fig = plot_style.new_figure((8.0, 6.0))
-    axes = fig.subplots(3, 2, height_ratios=[1.0, 2.0, 1.0])
-    plot_style.fixed_margins(fig, left=0.9, right=0.3, top=0.5, bottom=0.7, row_gap=0.4,
-                             column_gap=0.25)
-    boxes = [[ax.get_position().transformed(fig.transFigure)
-              .transformed(fig.dpi_scale_trans.inverted()) for ax in row] for row in axes]
-    assert boxes[0][0].x0 == pytest.approx(0.9)
-    assert boxes[0][1].x1 == pytest.approx(8.0 - 0.3)
-    assert boxes[0][0].y1 == pytest.approx(6.0 - 0.5)
-    assert boxes[-1][0].y0 == pytest.approx(0.7)
-    assert boxes[0][1].x0 - boxes[0][0].x1 == pytest.approx(0.25)
-    for upper, lower in itertools.pairwise(boxes):
-        assert upper[0].y0 - lower[0].y1 == pytest.approx(0.4)
-    assert boxes[1][0].height == pytest.approx(2.0 * boxes[0][0].height)
+def test_trace_texts_stay_inside_and_apart_with_awkward_numbers(observed):
+    """The trace's layout keeps every text inside the figure and off the other rows, and
+    each row's y label off its tick labels, where the numbers are awkward: a T0 an hour into
+    a recording (ticks of nine characters), an α within 1e-5 of 1, a jitter that needs an
+    offset (×1e−4), and every title flagged for its R-hat. (Margins fixed in inches failed
+    this: the T0 label left the figure and the offset text pushed a title into the row
+    above.)"""
+    from types import SimpleNamespace
 
-
-def test_trace_texts_stay_inside_the_figure_and_off_other_rows(idatas, inputs):
-    """The trace's margins are fixed, not laid out: once drawn, every title, label and tick
-    label lies inside the figure, and no row's title or tick labels reach into the plot of
-    the row above or below."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.text import Text
 
     from drumroll.reporting.trace_plot import draw_trace
 
+    times, sigmas = observed
+    idata = make_idata("pendulum", times, sigmas, 5, n_chain=8, n_draw=30)
+    rng = np.random.default_rng(6)
+    post = idata.posterior
+    post["t0_s"] = 0.0 * post["t0_s"] + 3599.123456 + rng.normal(0.0, 3e-5, post["t0_s"].shape)
+    post["alpha"] = 0.0 * post["alpha"] + 0.999991 + rng.normal(0.0, 2e-6, post["alpha"].shape)
+    post["jitter_ms"] = post["jitter_ms"] * 1e-3
+    flagged = {name: SimpleNamespace(r_hat=1.0123, ess_bulk=123456.0)
+               for name in post.data_vars}
     with plot_style.style():
-        fig = draw_trace(idatas["pendulum"], inputs.summary.parameters)
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-
+        fig = draw_trace(idata, flagged)
         fig.set_dpi(plot_style.DPI)
         renderer = FigureCanvasAgg(fig).get_renderer()
         fig.draw(renderer)
-        inside = fig.bbox.padded(1.0)
-        plots = [ax for ax in fig.axes if ax.get_subplotspec().colspan.start == 0]
-        for row, ax in enumerate(plots):
-            texts = [*(c for c in ax.get_children() if isinstance(c, Text)), ax.yaxis.label,
-                     *(t.label1 for t in ax.yaxis.get_major_ticks() if t.label1.get_visible()
-                       and t.label1.get_text())]
-            if row == len(plots) - 1:
-                texts += [ax.xaxis.label, *(t.label1 for t in ax.xaxis.get_major_ticks()
-                                            if t.label1.get_visible() and t.label1.get_text())]
-            for text in texts:
-                if not text.get_text():
-                    continue
-                box = text.get_window_extent(renderer)
-                assert inside.contains(box.x0, box.y0) and inside.contains(box.x1, box.y1), \
-                    text.get_text()
-                for other in plots[:row] + plots[row + 1:]:
-                    plot = other.get_window_extent(renderer)
-                    assert not box.overlaps(plot), (text.get_text(), row)
+    inside = fig.bbox.padded(1.0)
+    plots = [ax for ax in fig.axes if ax.get_subplotspec().colspan.start == 0]
+    assert len(plots) >= 4
+    for row, ax in enumerate(plots):
+        ticks = [t.label1 for t in ax.yaxis.get_major_ticks()
+                 if t.label1.get_visible() and t.label1.get_text()]
+        texts = [*(c for c in ax.get_children() if isinstance(c, Text)), ax.yaxis.label,
+                 ax.yaxis.offsetText, *ticks]
+        for text in texts:
+            if not text.get_text():
+                continue
+            box = text.get_window_extent(renderer)
+            assert inside.contains(box.x0, box.y0) and inside.contains(box.x1, box.y1), \
+                text.get_text()
+            for other in plots[:row] + plots[row + 1:]:
+                assert not box.overlaps(other.get_window_extent(renderer)), text.get_text()
+        label = ax.yaxis.label.get_window_extent(renderer)
+        assert not any(label.overlaps(t.get_window_extent(renderer)) for t in ticks)
