@@ -132,7 +132,7 @@ def _format_axes(axes: np.ndarray, labels: list[str]) -> None:
 
     # Plain-text tick labels (useMathText=False): the same digits in the same font, where
     # mathtext parsed each label on its own (a tenth of the figure's time, medians of 12
-    # cold draws); only an exponent, which these ranges do not reach, would read 1e−5.
+    # cold draws); only an axis that needs an exponent shows it as 1e−5, not ×10⁻⁵.
     k = len(labels)
     for i in range(k):
         for j in range(i + 1):
