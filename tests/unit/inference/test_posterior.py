@@ -364,7 +364,9 @@ def test_one_point_coordinates_equal_the_batch_map(model, variant, noise):
                                                                 lp.data.n_flights)[0][0])
 
 
-@pytest.mark.parametrize(("model", "variant"), [("pendulum", "release"), ("powerlaw", "table1")])
+@pytest.mark.parametrize(("model", "variant"), [("pendulum", "release"),
+                                              ("small-angle", "thin-rod"),
+                                              ("powerlaw", "radius")])
 def test_start_search_coordinates_put_t0_at_its_best_value(model, variant):
     """``to_sampler(x, t0_centred=True)`` (the start search's prior draws, mapped without a
     forward model) is ``to_sampler(x)`` with T0's offset δ set to 0, as the search had it: every
