@@ -128,11 +128,12 @@ def _panel_2d(ax, x: np.ndarray, y: np.ndarray, ranges: tuple, bins: int, smooth
 def _format_axes(axes: np.ndarray, labels: list[str]) -> None:
     """Ticks (at most :data:`MAX_TICKS`, the lowest pruned), tick labels on the outer panels
     only, rotated by 45°, and the parameter labels below and left of the grid."""
-    from matplotlib.ticker import MaxNLocator, NullLocator, ScalarFormatter
+    from matplotlib.ticker import MaxNLocator, NullLocator
 
-    # Plain-text tick labels (useMathText=False): the same digits in the same font, where
-    # mathtext parsed each label on its own (a tenth of the figure's time, medians of 12
-    # cold draws); only an axis that needs an exponent shows it as 1e−5, not ×10⁻⁵.
+    # The tick labels keep the axes' own plain-text formatter: mathtext's (useMathText)
+    # parsed each label on its own, a tenth of the figure's time (medians of 12 cold
+    # draws), for the same digits in the same font; only an axis that needs an exponent
+    # shows it as 1e−5, not ×10⁻⁵.
     k = len(labels)
     for i in range(k):
         for j in range(i + 1):
@@ -146,7 +147,6 @@ def _format_axes(axes: np.ndarray, labels: list[str]) -> None:
             if i < k - 1:
                 ax.tick_params(axis="x", labelbottom=False)
             else:
-                ax.xaxis.set_major_formatter(ScalarFormatter(useMathText=False))
                 ax.tick_params(axis="x", labelrotation=45)
                 ax.set_xlabel(labels[j], fontsize=10)
                 ax.xaxis.set_label_coords(0.5, -LABEL_OFFSET)
@@ -155,7 +155,6 @@ def _format_axes(axes: np.ndarray, labels: list[str]) -> None:
             if j > 0:
                 ax.tick_params(axis="y", labelleft=False)
             else:
-                ax.yaxis.set_major_formatter(ScalarFormatter(useMathText=False))
                 ax.tick_params(axis="y", labelrotation=45)
                 ax.set_ylabel(labels[i], fontsize=10)
                 ax.yaxis.set_label_coords(-LABEL_OFFSET, 0.5)

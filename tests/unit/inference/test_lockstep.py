@@ -43,8 +43,8 @@ def test_climbs_in_lockstep_equal_climbs_one_after_another(pendulum_target):
     points and densities to the last bit, in under half the calls of the target."""
     rng = np.random.default_rng(3)
     coordinates = pendulum_target.coordinates
-    z = coordinates.to_sampler(pendulum_target.log_posterior.space.sample_prior(rng, 2000))
-    z[:, coordinates.t0_column] = 0.0
+    z = coordinates.to_sampler(pendulum_target.log_posterior.space.sample_prior(rng, 2000),
+                               t0_centred=True)
     density = pendulum_target(z)
     starts = z[np.argsort(np.where(np.isfinite(density), density, -np.inf))[::-1][:4]]
     spread = np.std(z[np.isfinite(density)], axis=0)
