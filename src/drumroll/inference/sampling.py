@@ -201,6 +201,17 @@ def find_start(target: SamplerTarget, rng: np.random.Generator, n_starts: int = 
     return best
 
 
+#: The atoms' plateau in sds of the effect's size given that it is present
+#: (:func:`atom_geometry`). Steps to convergence, three seeds each: table2_h80's small-angle
+#: fit (P(no contact) = 0.9, contact 0-1 ms) took 1649, 1202, 1188 at 2 sds, 998, 1130, 1120
+#: at 8 and 1141, 856, 1045 at the prior's 3 ms; its power law 744, 854, 685 / 687, 694, 766 /
+#: 646, 744, 620; on a simulated roll timed to 5 µs (the contact slab 15-90 µs wide) the
+#: pendulum took 3813, 1720, 1012 / 919, 883, 821 / 2751, 1863, 1070 and the power law 685,
+#: 739, 762 / 769, 791, 650 / 750, 854, 799. Posteriors, P(absent) and ln Z agreed within
+#: their Monte Carlo error throughout.
+PLATEAU_SDS = 8.0
+
+
 def atom_geometry(coordinates: SamplerCoordinates, slab_draws: NDArray
                   ) -> tuple[AtomGeometry, ...]:
     """How the walkers should move between "absent" and "present" for each atom column of
@@ -213,8 +224,12 @@ def atom_geometry(coordinates: SamplerCoordinates, slab_draws: NDArray
 
     * the ridge: b_θ = cov(θ, τ) / var(τ), how far the other columns' mean moves per unit of
       the effect (a contact time is taken up by the flights);
-    * the plateau: twice τ's sd, so that "absent" is about as wide in z as "present"; never
-      wider than the prior's own plateau, and the prior's own where τ does not vary.
+    * the plateau: :data:`PLATEAU_SDS` times τ's sd, never wider than the prior's own
+      plateau (the prior's own where τ does not vary). The prior's own plateau makes the
+      density of z continuous at 0 (the likelihood is continuous there), but walkers spread
+      over 3 ms cross it slowly when the slab is tens of µs wide; a plateau a few slab sds
+      wide is crossed quickly, and "absent" is then denser in z than "present" next to it
+      by width / plateau, which walkers entering the slab must climb down.
 
     Taken from draws, not from derivatives at the start: the posterior of a contact time that
     piles against 0 is far from Gaussian there (a roll of 16 onsets timed to 10 µs: the
@@ -233,7 +248,8 @@ def atom_geometry(coordinates: SamplerCoordinates, slab_draws: NDArray
             continue
         ridge = ((z - z.mean(axis=0)).T @ (size - size.mean())) / (size.size * spread**2)
         ridge[list(coordinates.atom_columns)] = 0.0  # each atom keeps its own column
-        out.append(AtomGeometry(min(2.0 * spread, width), tuple(float(v) for v in ridge)))
+        out.append(AtomGeometry(min(PLATEAU_SDS * spread, width),
+                                tuple(float(v) for v in ridge)))
     return tuple(out)
 
 
