@@ -113,9 +113,10 @@ class AtomReflectMove(emcee.moves.MHMove):
     then mixes slowly (its autocorrelation time set how long the small-angle model of the
     README's roll was sampled). The mirror z_j → −z_j is its own inverse with unit Jacobian,
     so Metropolis–Hastings accepts it with the ratio of the densities alone and keeps the
-    target invariant; the coordinates' plateau (twice the effect's posterior spread) and
-    ridge (the other columns follow the effect's size) put the image of a typical "present"
-    walker among the typical "absent" ones, and the other way round.
+    target invariant; the coordinates' plateau (a few times the effect's posterior spread:
+    :data:`~drumroll.inference.sampling.PLATEAU_SDS`) and ridge (the other columns follow
+    the effect's size) put the image of a typical "present" walker among the "absent" ones,
+    and that of an "absent" one near 0 among the "present" ones.
     """
 
     def __init__(self, columns: tuple[int, ...]) -> None:
