@@ -123,8 +123,8 @@ def test_the_verdict_on_table2_h50_does_not_hang_on_the_power_laws_t_b_range(tmp
 
     Whether the Bayes factor is flagged rests on the largest one-model shift: the power law's
     own is exactly ln 2 for a flat t_B prior, the pendulum's (its geometry priors half or twice
-    as wide) is about 1 nat here, so the flag itself sits near its threshold and follows the
-    chains' round-off; it must be the same under both t_B ranges, and so must the verdict."""
+    as wide, in closed form) 0.9 nat here, near the flag's threshold; the flag must be the same
+    under both t_B ranges, and so must the verdict."""
     base = (DATA / "table2_h50.toml").read_text()
     verdicts, flags = [], []
     for high in ("2.0", "20.0"):
