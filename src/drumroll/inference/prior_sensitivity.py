@@ -50,8 +50,9 @@ PRIOR_DOMINATED_NATS = 1.0
 def log_evidence_shift(posterior, priors: Mapping[str, Distribution], names: Collection[str],
                        factor: float) -> float | None:
     """ln Z_f − ln Z when the priors of ``names`` are ``factor`` times as wide: in closed form
-for the normal and log-normal priors (:func:`gaussian_log_evidence_shift`, their truncation's
-mass included), by reweighting the draws for the rest (module docstring).
+    for the normal and log-normal priors (:func:`gaussian_log_evidence_shift`, their
+    truncation's mass included), by reweighting the draws for the rest and for those where
+    the draws' covariance is singular (module docstring).
 
     Parameters
     ----------
@@ -76,8 +77,12 @@ mass included), by reweighting the draws for the rest (module docstring).
     if gaussian:
         y = np.stack([_standard(priors[name], _draws(posterior, name)) for name in gaussian],
                      axis=-1)
-        shift = gaussian_log_evidence_shift(y, factor) + sum(
-            priors[name].log_mass - priors[name].widened(factor).log_mass for name in gaussian)
+        closed = gaussian_log_evidence_shift(y, factor)
+        if closed is None:  # no covariance to take a likelihood from: reweight them too
+            gaussian = []
+        else:
+            shift = closed + sum(priors[name].log_mass - priors[name].widened(factor).log_mass
+                                 for name in gaussian)
     log_ratio = 0.0
     for name in names:
         if name in gaussian:
@@ -96,7 +101,7 @@ mass included), by reweighting the draws for the rest (module docstring).
     return float(shift + top + math.log(np.mean(np.exp(log_ratio - top))))
 
 
-def gaussian_log_evidence_shift(y: np.ndarray, factor: float) -> float:
+def gaussian_log_evidence_shift(y: np.ndarray, factor: float) -> float | None:
     """ln Z_f − ln Z for a standard normal prior on ``y`` made ``factor`` times as wide, the
     likelihood Gaussian in ``y``, from the posterior's draws ``y`` ``(n, k)``.
 
@@ -108,11 +113,18 @@ def gaussian_log_evidence_shift(y: np.ndarray, factor: float) -> float:
         ln Z_f − ln Z = Σ −½ ln((1 + λ f²) / (1 + λ)) + ½ b² (f² − 1) / ((1 + λ f²)(1 + λ)),
 
     which tends to −ln f where the data pin the direction down (λ → ∞) and to 0 where they
-    say nothing (λ = 0, b = 0), with no division by λ.
+    say nothing (λ = 0, b = 0), with no division by λ. None when the draws' covariance is
+    singular (fewer draws than columns, or a column that does not vary).
     """
     y = np.asarray(y, float).reshape(-1, np.shape(y)[-1])
+    if y.shape[0] <= y.shape[1] or not np.all(np.isfinite(y)):
+        return None
     mean = y.mean(axis=0)
     covariance = np.atleast_2d(np.cov(y, rowvar=False))
+    try:
+        np.linalg.cholesky(covariance)
+    except np.linalg.LinAlgError:
+        return None
     precision = np.linalg.inv(covariance)
     lam, vectors = np.linalg.eigh(precision - np.eye(mean.size))
     lam = np.clip(lam, 0.0, None)

@@ -90,6 +90,19 @@ def test_a_log_normal_prior_is_gaussian_in_its_log():
             pytest.approx(-math.log(factor), abs=0.01)
 
 
+def test_draws_without_a_covariance_are_reweighted():
+    """A normal prior over draws that do not vary (a posterior collapsed onto one value) has
+    no covariance to take a Gaussian likelihood from; reweighting gives its exact shift, the
+    prior's density ratio at that value."""
+    prior = Normal(mu=0.131, sigma=0.002)
+    posterior = _posterior(pivot_mm=np.full(1000, 133.0))
+    for factor in (0.5, 2.0):
+        x = 0.133
+        expected = float(prior.widened(factor).logpdf(x) - prior.logpdf(x))
+        assert log_evidence_shift(posterior, {"pivot": prior}, ["pivot"], factor) == \
+            pytest.approx(expected, rel=1e-9)
+
+
 def test_families_widen_their_width_and_keep_their_lower_end():
     assert Uniform(low=0.01, high=2.0).widened(2.0).support == pytest.approx((0.01, 3.99))
     assert LogUniform(low=1e-5, high=1e-2).widened(0.5).support == pytest.approx(
