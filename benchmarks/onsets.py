@@ -783,6 +783,10 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
     side with its lossless original; prints the table and the pooled timing floors, and with
     ``misses`` every onset of the original not found within 1 ms, and what moved it
     (:func:`list_misses`). Returns ``source -> condition -> row``."""
+    import av
+
+    from drumroll.audio.encode import PRESETS, can_encode
+
     out: dict[str, dict[str, dict]] = {}
     pooled: dict[str, list[np.ndarray]] = {}
     with warnings.catch_warnings():
@@ -804,6 +808,10 @@ def run_phone(sources: dict[str, tuple[Path, str]], conditions: list[str] | None
                       f" ms, longest {1e3 * rise.max():.2f} ms ({rise.size} onsets)", flush=True)
             for condition, (kind, arg) in PHONE_CONDITIONS.items():
                 if conditions and not any(c.lower() in condition.lower() for c in conditions):
+                    continue
+                if kind == "encode" and not can_encode(arg):
+                    print(f"  {condition:30s} skipped: PyAV {av.__version__} has no "
+                          f"{PRESETS[arg].codec} encoder", flush=True)
                     continue
                 with tempfile.TemporaryDirectory() as tmp:
                     tmp_dir = Path(tmp)

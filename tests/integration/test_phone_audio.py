@@ -23,7 +23,7 @@ from scipy import signal
 
 from configs import BALL_CONFIG
 from drumroll.audio import AudioSource, iter_blocks, probe, read_audio, read_excerpt
-from drumroll.audio.encode import PRESETS, encode
+from drumroll.audio.encode import PRESETS, can_encode, encode
 from drumroll.audio.io import forget_decoded
 from drumroll.audio.timing import CODEC_FLOORS, timing_floor
 from drumroll.cli.main import main
@@ -194,7 +194,11 @@ def test_every_other_codec_is_read_with_its_warning(folder, pingpong, wav_onsets
 
 def test_amr_at_8_khz_is_read_with_its_warning(folder, pingpong, capsys):
     """AMR-NB 12.2 kb/s at 8 kHz in .3gp, a phone's voice recorder: read, with the warning
-    that the codec removes most of an impact's click (its figures are in the benchmark)."""
+    that the codec removes most of an impact's click (its figures are in the benchmark).
+    Skipped where PyAV's wheel has no AMR-NB encoder to make the file with (18.1.1 dropped
+    libopencore_amrnb; its decoder, which reading needs, is FFmpeg's own and still there)."""
+    if not can_encode("amr-nb"):
+        pytest.skip(f"PyAV {av.__version__} has no AMR-NB encoder: no .3gp can be made here")
     x, sr = pingpong
     path = encode(x, sr, folder / "pingpong.3gp", "amr-nb")
     info = probe(path)

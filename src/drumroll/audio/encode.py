@@ -89,6 +89,18 @@ PRESETS: dict[str, Preset] = {
 _VIDEO_SIZE, _VIDEO_FPS = (64, 48), 25
 
 
+def can_encode(preset: str | Preset) -> bool:
+    """Whether the installed PyAV's FFmpeg has the encoder ``preset`` needs (its wheels'
+    builds differ: 18.1.0 carries the AMR-NB encoder, libopencore_amrnb, 18.1.1 does not;
+    both decode AMR, which is what reading a phone's file needs)."""
+    chosen = PRESETS[preset] if isinstance(preset, str) else preset
+    try:
+        av.Codec(chosen.codec, "w")
+    except av.codec.codec.UnknownCodecError:
+        return False
+    return True
+
+
 def _rate_for(preset: Preset, codec: av.Codec, rate: int) -> int:
     if preset.sample_rate:
         return preset.sample_rate
@@ -137,6 +149,9 @@ def encode(samples: np.ndarray, sample_rate: int, path: str | os.PathLike[str],
     """
     chosen = PRESETS[preset] if isinstance(preset, str) else preset
     path = Path(path)
+    if not can_encode(chosen):
+        raise ValueError(f"PyAV {av.__version__} has no {chosen.codec} encoder, so no "
+                         f"{chosen.description or chosen.codec} can be written with it")
     codec = av.Codec(chosen.codec, "w")
     rate = _rate_for(chosen, codec, int(sample_rate))
     tracks = []
