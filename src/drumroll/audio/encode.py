@@ -149,10 +149,11 @@ def encode(samples: np.ndarray, sample_rate: int, path: str | os.PathLike[str],
     """
     chosen = PRESETS[preset] if isinstance(preset, str) else preset
     path = Path(path)
-    if not can_encode(chosen):
-        raise ValueError(f"PyAV {av.__version__} has no {chosen.codec} encoder, so no "
-                         f"{chosen.description or chosen.codec} can be written with it")
-    codec = av.Codec(chosen.codec, "w")
+    try:
+        codec = av.Codec(chosen.codec, "w")
+    except av.codec.codec.UnknownCodecError:
+        raise ValueError(f"{path.name}: PyAV {av.__version__} has no {chosen.codec} encoder "
+                         "(see can_encode)") from None
     rate = _rate_for(chosen, codec, int(sample_rate))
     tracks = []
     for x in (samples, *extra_streams):

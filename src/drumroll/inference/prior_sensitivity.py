@@ -83,18 +83,16 @@ def log_evidence_shift(posterior, priors: Mapping[str, Distribution], names: Col
         else:
             shift = closed + sum(priors[name].log_mass - priors[name].widened(factor).log_mass
                                  for name in gaussian)
+    reweighted = [name for name in names if name not in gaussian]
+    if not reweighted:
+        return float(shift)
     log_ratio = 0.0
-    for name in names:
-        if name in gaussian:
-            continue
+    for name in reweighted:
         wide = priors[name].widened(factor)
         if wide is None:
             return None
         x = _draws(posterior, name)
         log_ratio = log_ratio + wide.logpdf(x) - priors[name].logpdf(x)
-    if isinstance(log_ratio, float):  # nothing reweighted
-        return float(shift)
-    log_ratio = np.asarray(log_ratio, float)
     top = np.max(log_ratio)
     if not np.isfinite(top):
         return None
