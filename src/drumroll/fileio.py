@@ -15,7 +15,7 @@ import contextlib
 import errno
 import os
 import tempfile
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 
 from drumroll.errors import DrumrollError
@@ -68,8 +68,15 @@ def no_space_error(path: str | os.PathLike[str], exc: OSError) -> NoSpace:
     return NoSpace(path, exc.errno)
 
 
-def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
-    """Refuse to replace an existing file unless ``overwrite`` is set.
+def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False,
+                   inputs: Iterable[str | os.PathLike[str]] = ()) -> Path:
+    """Refuse to replace an existing file unless ``overwrite`` is set, and never replace
+    what is not a regular file or one of the command's ``inputs``.
+
+    An output is written as a new file and renamed onto its name (:func:`atomic_paths`), so
+    an existing device or pipe (``/dev/null``, a FIFO) would be replaced by a plain file, not
+    written through: refused even with ``--force``, as is an output that is an input of the
+    same command (a recording overwritten by its own onsets).
 
     Parameters
     ----------
@@ -77,6 +84,8 @@ def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False) -> 
         Destination the caller is about to write.
     overwrite
         Allow replacing an existing file (the command line's ``--force``).
+    inputs
+        The files the command reads (those that do not exist are ignored).
 
     Returns
     -------
@@ -86,6 +95,13 @@ def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False) -> 
     path = Path(path)
     if path.is_dir():
         raise DrumrollError(f"{path}: is a directory, expected a file name to write")
+    if path.exists() and not path.is_file():
+        raise DrumrollError(f"{path}: is not a regular file (a device, pipe or socket): "
+                            "outputs are written as new files; give a file name")
+    for source in inputs:
+        if path.exists() and Path(source).exists() and os.path.samefile(path, source):
+            raise DrumrollError(f"{path}: is an input of this command; give the output "
+                                "another name")
     if path.exists() and not overwrite:
         raise DrumrollError(f"{path}: already exists (use --force to overwrite it)")
     check_folder_writable(path.parent)

@@ -46,6 +46,19 @@ def test_files_plot_and_overwrite(roll_flac, tmp_path, capsys):
     assert main([*args, "--force"]) == 0
 
 
+def test_the_recording_is_never_overwritten_by_its_onsets(roll_flac, tmp_path, capsys):
+    """``-o`` naming the recording itself is refused, --force or not, and the recording
+    is left as it was."""
+    path, _ = roll_flac
+    copy = tmp_path / "roll.flac"
+    copy.write_bytes(path.read_bytes())
+    for option in ("-o", "--labels"):
+        assert main(["onsets", str(copy), option, str(copy), "--force"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "is an input of this command" in err[0]
+    assert copy.read_bytes() == path.read_bytes()
+
+
 @pytest.mark.parametrize("kind", [*BAD, "noise"])
 def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys, kind):
     if kind == "noise":

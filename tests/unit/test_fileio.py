@@ -74,3 +74,32 @@ def test_a_stop_whose_exception_was_lost_still_keeps_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
     fileio.write_text(tmp_path / "a.csv", "time_s\n")
     assert (tmp_path / "a.csv").read_text() == "time_s\n"
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes on this system")
+def test_a_pipe_or_device_is_never_replaced_even_with_force(tmp_path):
+    """An output is renamed onto its name: a FIFO or /dev/null would become a plain file
+    (as root, /dev/null itself). Both are refused, --force or not, and left as they are."""
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    for target in (fifo, "/dev/null"):
+        with pytest.raises(DrumrollError, match="not a regular file"):
+            fileio.check_writable(target, overwrite=True)
+    assert fifo.is_fifo()
+    assert os.path.exists("/dev/null") and not os.path.isfile("/dev/null")
+
+
+def test_an_input_is_never_an_output(tmp_path):
+    """An output that is one of the command's inputs (its recording, its config) is refused
+    even with --force, also through another spelling of its path; other inputs and files
+    that do not exist yet are no obstacle."""
+    recording = tmp_path / "roll.wav"
+    recording.write_bytes(b"RIFF")
+    other = tmp_path / "config.toml"
+    other.write_text("")
+    with pytest.raises(DrumrollError, match="is an input of this command"):
+        fileio.check_writable(tmp_path / "." / "roll.wav", overwrite=True,
+                              inputs=[other, recording])
+    assert recording.read_bytes() == b"RIFF"
+    assert fileio.check_writable(other, overwrite=True, inputs=[recording]) == other
+    assert fileio.check_writable(tmp_path / "new.csv", inputs=[recording, tmp_path / "gone"])

@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     # Refuse to clobber before doing the work, not after it.
     outputs = [Path(p) for p in (args.output, args.labels, args.plot) if p]
     for path in outputs:
-        fileio.check_writable(path, overwrite=args.force)
+        fileio.check_writable(path, overwrite=args.force, inputs=[args.audio])
     if len({p.resolve() for p in outputs}) < len(outputs):
         raise DrumrollError("-o, --labels and --plot name the same file: give each its own")
     if args.plot:

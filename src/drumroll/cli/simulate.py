@@ -101,8 +101,8 @@ def run(args: argparse.Namespace) -> int:
                 numbered(output, i, args.count).with_suffix(".truth.json")
                 if args.count > 1 else truth_path) for i in range(args.count)]
     for recording, truth in targets:  # fail before the work, not after it
-        check_writable(recording, overwrite=args.force)
-        check_writable(truth, overwrite=args.force)
+        check_writable(recording, overwrite=args.force, inputs=[args.config])
+        check_writable(truth, overwrite=args.force, inputs=[args.config])
     if args.count == 1:
         print(_simulate_one(config, args, output, truth_path, args.seed, container, subtype))
         return 0

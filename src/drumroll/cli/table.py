@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         page = html_path(args.output)
     for path in (args.output, page, args.plot):
         if path is not None:
-            check_writable(path, overwrite=args.force)
+            check_writable(path, overwrite=args.force, inputs=[args.runs])
     if args.plot is not None and args.plot.suffix.lower() != ".png":
         raise DrumrollError(f"{args.plot}: the figure is written as PNG; name it *.png")
     if not args.no_cache:
