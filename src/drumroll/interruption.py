@@ -1,4 +1,7 @@
-"""Ctrl-C and SIGTERM, handled alike: raised where the command is, and never lost.
+"""Ctrl-C, SIGTERM and SIGHUP, handled alike: raised where the command is, and never lost.
+
+SIGHUP is what a closed terminal or a dropped SSH session sends: left to its default, it
+would kill the command at once, leaving its staged files and its workers behind.
 
 Python raises a signal handler's exception wherever the main thread happens to be. When that
 is inside a weakref callback or a ``__del__`` (a garbage collection in the middle of writing
@@ -17,13 +20,28 @@ import threading
 _pending: int | None = None
 
 
+#: The signals handled: a terminal's Ctrl-C, a kill, a hang-up (where the system has one).
+SIGNALS = tuple(s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
+                if s is not None)
+
+
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the command is, so that it ends as a Ctrl-C does: workers
-    stopped, staged files removed, one line."""
+    """SIGTERM or SIGHUP (``signum``), raised where the command is, so that it ends as a
+    Ctrl-C does: workers stopped, staged files removed, one line; the exit status is
+    128 + ``signum``, as a shell reports a command the signal ended."""
+
+    def __init__(self, signum: int = signal.SIGTERM) -> None:
+        super().__init__(signum)
+        self.signum = int(signum)
+
+    @property
+    def how(self) -> str:
+        """The word for it: "terminated" or "hung up"."""
+        return "hung up" if self.signum == getattr(signal, "SIGHUP", None) else "terminated"
 
 
 def _interrupt(signum: int) -> KeyboardInterrupt:
-    return Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+    return KeyboardInterrupt() if signum == signal.SIGINT else Terminated(signum)
 
 
 def _handler(signum, frame) -> None:
@@ -33,13 +51,13 @@ def _handler(signum, frame) -> None:
 
 
 def install() -> dict[int, object] | None:
-    """Handle SIGINT and SIGTERM as above (in the main thread only: a signal handler can be
+    """Handle :data:`SIGNALS` as above (in the main thread only: a signal handler can be
     set nowhere else); returns the handlers replaced, for :func:`restore`, or None."""
     global _pending
     if threading.current_thread() is not threading.main_thread():
         return None
     _pending = None
-    return {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    return {s: signal.signal(s, _handler) for s in SIGNALS}
 
 
 def restore(previous: dict[int, object] | None) -> None:

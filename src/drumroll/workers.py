@@ -1,4 +1,4 @@
-"""Process pools that a Ctrl-C stops at once and quietly.
+"""Process pools that a Ctrl-C stops at once and quietly, and that never outlive the command.
 
 A terminal's Ctrl-C reaches every process of the command. The workers ignore it, so that the
 main process alone sees the interrupt (and reports it in one line, removing whatever it had
@@ -15,21 +15,47 @@ have shared.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import gc
+import os
 import signal
+import sys
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 
+#: prctl's option that sets the signal a process gets when its parent ends (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
 #: Pools open now: the heap is frozen while any is (the estimate opens its figure workers'
 #: pool while its samplers' is open, and closes it after).
 _open_pools = 0
 
 
-def _ignore_interrupt() -> None:
+def _end_with(parent: int) -> None:
+    """Have the kernel send this worker SIGTERM when the process that forked it ends
+    (Linux's PR_SET_PDEATHSIG): a main process killed outright (SIGKILL, the OOM killer)
+    runs no clean-up, and its workers would otherwise sample on, orphaned. Elsewhere, or
+    where prctl is not to be had, nothing is done."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # it ended before the request was made
+        os._exit(1)
+
+
+def _ignore_interrupt(parent: int) -> None:
+    # A terminal's Ctrl-C and hang-up reach every process of the command: the main process
+    # alone acts on them (drumroll.interruption) and stops the workers.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
     # The parent's SIGTERM handler (drumroll.cli.main) is inherited by a forked worker; a
     # worker must simply end on SIGTERM, which is how the parent stops it.
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _end_with(parent)
 
 
 @contextlib.contextmanager
@@ -47,7 +73,8 @@ def process_pool(max_workers: int) -> Iterator[ProcessPoolExecutor]:
     gc.freeze()
     _open_pools += 1
     try:
-        pool = ProcessPoolExecutor(max_workers=max_workers, initializer=_ignore_interrupt)
+        pool = ProcessPoolExecutor(max_workers=max_workers, initializer=_ignore_interrupt,
+                                   initargs=(os.getpid(),))
         try:
             yield pool
         except BaseException:

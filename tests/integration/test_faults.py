@@ -66,11 +66,14 @@ def test_an_internal_fault_is_one_line_exit_1_and_debug_shows_it(tmp_path, capsy
         main([*command, "--debug"])
 
 
-@pytest.mark.parametrize("stage", ["sampling", "writing"])
-def test_sigterm_stops_everything_and_keeps_nothing_half_written(tmp_path, stage):
+@pytest.mark.parametrize(("stage", "signum", "how"), [
+    ("sampling", signal.SIGTERM, "terminated"), ("writing", signal.SIGTERM, "terminated"),
+    ("sampling", signal.SIGHUP, "hung up")])
+def test_sigterm_stops_everything_and_keeps_nothing_half_written(tmp_path, stage, signum, how):
     """SIGTERM, as a process manager or `kill` sends it, in the middle of the sampling (two
-    worker processes) or of the writing (figure workers, a staged posterior.nc): one line,
-    exit 143, no process of the command left running, no output folder or staging left."""
+    worker processes) or of the writing (figure workers, a staged posterior.nc), or SIGHUP, as
+    a closed terminal sends it: one line, exit 128 + the signal, no process of the command
+    left running, no output folder or staging left."""
     out = tmp_path / "out"
     proc = subprocess.Popen(
         [sys.executable, "-m", "drumroll", "estimate", str(DATA / "table2_h80.flac"),
@@ -82,10 +85,10 @@ def test_sigterm_stops_everything_and_keeps_nothing_half_written(tmp_path, stage
         if line.startswith(stage):
             break
     time.sleep(0.3)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(signum)
     rest = proc.stderr.read()
-    assert proc.wait(timeout=60) == 143, "".join(lines) + rest
-    assert rest.strip().splitlines()[-1] == "drumroll: terminated; no partial output was kept"
+    assert proc.wait(timeout=60) == 128 + signum, "".join(lines) + rest
+    assert rest.strip().splitlines()[-1] == f"drumroll: {how}; no partial output was kept"
     assert "Traceback" not in rest
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline:  # the workers end with their parent

@@ -55,3 +55,17 @@ def test_a_swallowed_sigterm_ends_the_command_with_143(capsys):
     assert run_cli(make_parser, []) == 143
     assert capsys.readouterr().err.strip().endswith("terminated; no partial output was kept")
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_hang_up_ends_the_command_as_sigterm_does_with_129(capsys):
+    """SIGHUP (a closed terminal, a dropped SSH session) is handled, not left to kill the
+    command outright with its staging and workers behind: one line, exit 128 + 1."""
+    from drumroll.cli.main import run_cli
+
+    def make_parser():
+        parser = argparse.ArgumentParser(prog="drumroll")
+        parser.set_defaults(func=lambda args: os.kill(os.getpid(), signal.SIGHUP))
+        return parser
+
+    assert run_cli(make_parser, []) == 128 + signal.SIGHUP
+    assert capsys.readouterr().err.strip().endswith("hung up; no partial output was kept")

@@ -54,6 +54,42 @@ def _gone(process) -> bool:
         return False
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+def test_workers_end_when_the_command_is_killed_outright():
+    """A main process killed by SIGKILL runs no clean-up: its workers are ended by the
+    kernel (they asked for SIGTERM on their parent's death), not left sampling, orphaned."""
+    script = (
+        "import os, signal, time\n"
+        "from drumroll.workers import process_pool\n"
+        "with process_pool(2) as pool:\n"
+        "    pool.submit(time.sleep, 60); pool.submit(time.sleep, 60)\n"
+        "    time.sleep(0.5)\n"
+        "    print(*[p.pid for p in pool._processes.values()], flush=True)\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=60, check=False)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    pids = [int(p) for p in proc.stdout.split()]
+    assert len(pids) == 2
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and not all(_pid_gone(p) for p in pids):
+        time.sleep(0.1)
+    assert all(_pid_gone(p) for p in pids), "workers outlived their killed parent"
+
+
+def _pid_gone(pid: int) -> bool:
+    """Whether the process ``pid`` has ended (gone, or a zombie nobody reaped yet)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rsplit(")", 1)[-1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
 def test_pools_nest_and_the_heap_stays_frozen_while_any_is_open():
     import gc
 

@@ -173,9 +173,10 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt as exc:
-        how = "terminated" if isinstance(exc, interruption.Terminated) else "interrupted"
+        ended = exc if isinstance(exc, interruption.Terminated) else None
+        how = "interrupted" if ended is None else ended.how
         print(f"{parser.prog}: {how}; no partial output was kept", file=sys.stderr)
-        return 128 + signal.SIGTERM if isinstance(exc, interruption.Terminated) else 130
+        return 130 if ended is None else 128 + ended.signum
     except BrokenPipeError:  # e.g. `drumroll predict cfg.toml | head`
         return 0
     except OSError as exc:
