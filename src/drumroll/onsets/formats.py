@@ -7,7 +7,10 @@ recognised, its reader and its writer (:data:`ONSET_FORMATS`).
 * ``labels``: an Audacity label track (``start<TAB>end<TAB>label``). Labels named ``hit n``
   (what :meth:`~drumroll.onsets.table.OnsetTable.to_labels` writes) carry bounce n − 1, and
   ``roll m hit n`` roll m − 1 as well (labels count from 1, as people do); when any label is
-  named otherwise, the labels are numbered in time order.
+  named otherwise, the labels are numbered in time order. A label's ``, sd x ms`` is its
+  onset's timing error ``sigma_s``, so that onsets edited in Audacity keep their weights in
+  the fit (a faint onset's error is several times a loud one's); a label without it (one
+  added by hand) has none but the fitted jitter.
 * ``text``: one time per line, seconds; one roll numbered 0, 1, 2, …
 
 so that hand-made and third-party onset lists can be fitted too.
@@ -32,7 +35,8 @@ from drumroll.onsets.table import (
     numbering_problem,
 )
 
-_LABEL = re.compile(r"^(?:roll\s+(\d+)\s+)?hit\s+(\d+)$", re.IGNORECASE)
+_LABEL = re.compile(r"^(?:roll\s+(\d+)\s+)?hit\s+(\d+)"
+                    r"(?:\s*,?\s*sd\s+(\d+(?:\.\d*)?(?:e[-+]?\d+)?)\s*ms)?$", re.IGNORECASE)
 
 #: A reader: the file's path (for messages) and its numbered, non-empty, non-comment lines.
 Reader = Callable[[Path, list[tuple[int, str]]], OnsetTable]
@@ -198,6 +202,7 @@ def _read_labels(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
                                     "are counted from 1 in labels")
         columns["bounce"] = np.array([int(m.group(2)) - 1 for m in matches], np.int64)
         columns["roll"] = np.array([int(m.group(1) or 1) - 1 for m in matches], np.int64)
+        columns["sigma_s"] = np.array([1e-3 * float(m.group(3) or 0.0) for m in matches])
     return _numbered(path, line_numbers, times, columns)
 
 

@@ -148,19 +148,26 @@ def test_bad_bounce_columns_are_one_line_naming_it(tmp_path, text, where, what):
 def test_audacity_labels_carry_the_numbers(tmp_path):
     table = two_rolls()
     labels = table.to_labels().splitlines()
-    assert labels[2].endswith("\troll 1 hit 4") and labels[3].endswith("\troll 2 hit 1")
+    assert labels[2].endswith("\troll 1 hit 4, sd 0.0300 ms")
+    assert labels[3].endswith("\troll 2 hit 1, sd 0.0400 ms")
     path = tmp_path / "labels.txt"
     path.write_text(table.to_labels())
     back = read_onsets(path)
     np.testing.assert_array_equal(back.bounce, table.bounce)
     np.testing.assert_array_equal(back.roll, table.roll)
+    np.testing.assert_allclose(back.sigma_s, table.sigma_s, atol=1e-10)
     # one roll: the labels written before bounce numbers existed (hit 1 is bounce 0)
     one = table.select_roll(1)
-    assert one.to_labels().splitlines()[0].endswith("\troll 2 hit 1")
-    plain = OnsetTable(one.time_s, one.amplitude, one.snr_db, one.sigma_s)
+    assert one.to_labels().splitlines()[0].endswith("\troll 2 hit 1, sd 0.0400 ms")
+    plain = OnsetTable(one.time_s, one.amplitude, one.snr_db, np.zeros(4))
     assert [ln.split("\t")[2] for ln in plain.to_labels().splitlines()] == [
         "hit 1", "hit 2", "hit 3", "hit 4"]
     path.write_text("0.5\t0.5\thit 1\n0.72\t0.72\tHit 2\n0.91\t0.91\thit 4\n")
+    np.testing.assert_array_equal(read_onsets(path).bounce, [0, 1, 3])
+    # a label's ", sd x ms" is its onset's timing error; one added by hand has none
+    path.write_text("0.5\t0.5\thit 1, sd 0.12 ms\n0.72\t0.72\thit 2\n"
+                    "0.91\t0.91\troll 1 hit 4 SD 1.5e-1 ms\n")
+    np.testing.assert_allclose(read_onsets(path).sigma_s, [1.2e-4, 0.0, 1.5e-4])
     np.testing.assert_array_equal(read_onsets(path).bounce, [0, 1, 3])
     # labels named otherwise are numbered in time order, as before
     path.write_text("0.5\t0.5\thit 1\n0.72\t0.72\tthe faint one\n0.91\t0.91\thit 4\n")
