@@ -59,6 +59,15 @@ def test_the_recording_is_never_overwritten_by_its_onsets(roll_flac, tmp_path, c
     assert copy.read_bytes() == path.read_bytes()
 
 
+def test_a_high_pass_above_what_the_rate_allows_is_refused(roll_flac, capsys):
+    """--highpass past a tenth of the sample rate leaves no band to analyse: it was capped
+    without a word (30 kHz on a 44.1 kHz recording gave hundreds of "impacts")."""
+    path, _ = roll_flac
+    assert main(["onsets", str(path), "--highpass", "30000"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "leaves nothing to analyse" in err[0] and "at most" in err[0]
+
+
 @pytest.mark.parametrize("kind", [*BAD, "noise"])
 def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys, kind):
     if kind == "noise":

@@ -26,7 +26,7 @@ from drumroll.onsets.channels import earliest_channel
 from drumroll.onsets.envelope import next_by_envelope, retime_by_envelope
 from drumroll.onsets.excerpt import Excerpt
 from drumroll.onsets.follow import OFF_LAW, FollowParams, follow
-from drumroll.onsets.odf import OdfParams
+from drumroll.onsets.odf import OdfParams, highest_highpass
 from drumroll.onsets.prediction import flight_predictor
 from drumroll.onsets.roll import Roll
 from drumroll.onsets.sequence import retime_by_law
@@ -224,6 +224,12 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
         def excerpt(start: int, stop: int, channel: int | None = None) -> np.ndarray:
             return read_excerpt(source, start, stop, channel, stream=which)
 
+    highest = highest_highpass(rate)
+    if odf.highpass_hz > highest:
+        # The analysis bands tile highpass_hz up to 0.45 of the rate: above this there is
+        # no band left to analyse, and the filter would be capped here without a word.
+        raise AudioError(f"{name}: a high-pass of {odf.highpass_hz:g} Hz leaves nothing to "
+                         f"analyse at {rate} Hz: give at most {highest:g} Hz")
     # A lossy codec's noise may come before an impact by up to one transform window: the
     # onsets are timed where the sound steps out of it (:mod:`.refine`).
     codec_block = 0 if info is None else round(pre_echo_s(info) * rate)

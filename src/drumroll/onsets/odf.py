@@ -60,10 +60,16 @@ class OdfParams:
         return max(1, round(seconds * sample_rate / self.hop(sample_rate)))
 
 
+def highest_highpass(sample_rate: int) -> float:
+    """The highest ``highpass_hz`` a recording at ``sample_rate`` allows: a tenth of the
+    rate, so that bands are left between it and the top band's 0.45 of the rate."""
+    return 0.1 * sample_rate
+
+
 def band_edges(params: OdfParams, sample_rate: int) -> list[tuple[float, float | None]]:
     """Analysis bands ``(low, high)``; the top band is a high-pass (``high`` is None)."""
     top = 0.45 * sample_rate
-    lo = min(params.highpass_hz, 0.1 * sample_rate)
+    lo = min(params.highpass_hz, highest_highpass(sample_rate))
     edges = [lo]
     while edges[-1] * params.band_ratio < top / 1.5:
         edges.append(edges[-1] * params.band_ratio)
@@ -117,7 +123,7 @@ def wide_filter(params: OdfParams, sample_rate: int) -> FilterStream:
 
 @functools.lru_cache(maxsize=16)
 def _wide_sos(params: OdfParams, sample_rate: int) -> np.ndarray:
-    lo = min(params.highpass_hz, 0.1 * sample_rate)
+    lo = min(params.highpass_hz, highest_highpass(sample_rate))
     return butter_sos(4, lo, "highpass", sample_rate)
 
 
