@@ -214,6 +214,13 @@ class Coverage(Record):
         """Half the error bars' width (about the rate's standard error)."""
         return 0.5 * (self.high - self.low)
 
+    @property
+    def can_fail(self) -> bool:
+        """Whether some count of covered simulations lies outside the band: with one or two
+        simulations every count from none to all lies inside the 90 % interval's band, and
+        "inside the band" says nothing."""
+        return self.n > 0 and not (self.band_low <= 0.0 and self.band_high >= 1.0)
+
 
 def coverage(covered: ArrayLike, nominal: float, band: float = BAND_PROBABILITY) -> Coverage:
     """The :class:`Coverage` of intervals of probability ``nominal`` from one boolean per

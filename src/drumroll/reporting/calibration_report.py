@@ -143,19 +143,29 @@ def _listed(keys: list[str] | tuple[str, ...]) -> Content:
     return content(*[(", " if i else "", _label(k)) for i, k in enumerate(keys)])
 
 
+def _simulations(n: int) -> str:
+    return f"{n} simulation{'' if n == 1 else 's'}"
+
+
 def headline(result: Any) -> tuple[Content, ...]:
     """The verdict before any number, one paragraph each: what was calibrated, then per
     level which parameters pass and which fail."""
     settings = result.settings
     paragraphs: list[Content] = [(
-        f"Simulation-based calibration (Talts et al. 2018) of {settings.n} rolls of "
+        f"Simulation-based calibration (Talts et al. 2018) of {settings.n} "
+        f"roll{'' if settings.n == 1 else 's'} of "
         f"{settings.n_onsets} onsets drawn from the priors of the ", Code(settings.model),
         " model and fitted as ", Code("estimate"), " fits them.")]
     for name, level in result.levels.items():
         source = ("the simulated onsets" if name == "onsets"
                   else "the onsets the extractor found in each roll's recording")
         failed = level.failed()
-        if not failed:
+        untested = not all(level.quantities[k].coverage_90.can_fail for k in level.parameters)
+        if not failed and untested:
+            verdict = content(Strong(("Not tested",)), f": with {_simulations(settings.n)} "
+                              "every coverage lies inside its binomial 99 % band, whatever "
+                              "the fits did; run more (--n 100 or more)")
+        elif not failed:
             tested = all(level.quantities[k].chi_square.dof for k in level.parameters)
             verdict = content(Strong(("Every parameter is calibrated",)), " (",
                               _listed(level.parameters), "): its 90 % coverage lies inside "
@@ -170,12 +180,14 @@ def headline(result: Any) -> tuple[Content, ...]:
                 (". The other parameters pass (", _listed(passed), ")") if passed else "")
         derived_failed = level.failed(level.derived)
         derived: Content = ()
-        if level.derived:
+        if level.derived and not untested:
             derived = (" Derived quantities: ", "all pass." if not derived_failed
                        else content("fail: ", _listed(derived_failed), "."))
         paragraphs.append(content(f"Fitting {source}: ", verdict, ".", derived))
-    if any(q.chi_square.dof == 0 for q in result.onsets.quantities.values()):
-        paragraphs.append((f"{settings.n} simulations are too few for the χ² test of the "
+    if (any(q.chi_square.dof == 0 for q in result.onsets.quantities.values())
+            and all(q.coverage_90.can_fail for q in result.onsets.quantities.values())):
+        paragraphs.append((f"{_simulations(settings.n)} {'is' if settings.n == 1 else 'are'} "
+                           "too few for the χ² test of the "
                            f"ranks (it needs {2 * MIN_EXPECTED} or more): the coverage alone "
                            "decides.",))
     return tuple(paragraphs)

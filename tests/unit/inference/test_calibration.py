@@ -123,6 +123,16 @@ def test_coverage_band_and_error_bars():
     assert math.isclose(c.error, 0.5 * (c.high - c.low))
 
 
+@pytest.mark.parametrize(("n", "can_fail"), [(1, False), (2, False), (3, True), (200, True)])
+def test_a_coverage_that_cannot_fail_says_so(n, can_fail):
+    """With one or two simulations every count lies in the 90 % interval's 99 % band
+    (P(none covered) = 0.1^n is not below 0.005 until n = 3): "inside the band" tests
+    nothing, and calibrate's headline says "Not tested" instead of "calibrated"."""
+    assert coverage(np.ones(n, bool), 0.9).can_fail is can_fail
+    assert coverage(np.zeros(n, bool), 0.9).inside is not can_fail
+    assert not coverage(np.ones(0, bool), 0.9).can_fail
+
+
 def test_central_interval_coverage_uses_equal_tails():
     draws = np.arange(1000.0)
     assert central_interval_covers(500.0, draws, 0.5)
