@@ -103,8 +103,10 @@ def check_outputs(out_dir: str | os.PathLike[str], names: Iterable[str], *,
     if not overwrite and out_dir.is_dir():
         existing = [name for name in names if (out_dir / name).exists()]
         if existing:
+            # With --force the folder becomes this run's: each of these is replaced, or
+            # removed where this run writes no such file (write_outputs' last step).
             raise DrumrollError(f"{out_dir}: would overwrite {', '.join(existing)} (use --force "
-                                "or another --out)")
+                                "to replace an earlier run's outputs there, or another --out)")
     return out_dir
 
 
