@@ -82,6 +82,11 @@ if TYPE_CHECKING:  # ArviZ is imported only for Result.idatas
 
 #: Fewest onsets that can constrain a model (three flights).
 MIN_ONSETS = 4
+#: A flight longer than this is no bounce a recording holds: T = 2v/g = 10 s is a rebound
+#: 123 m high at 49 m/s. Onsets this far apart per bounce are times in another unit (a list
+#: in milliseconds is a thousand times too slow), which the Student-t noise would otherwise
+#: fit with every parameter at its prior's edge and no error.
+LONGEST_FLIGHT_S = 10.0
 #: Posterior draws stored per model in posterior.nc and drawn in the figures (beyond this the
 #: chain is thinned further, and the InferenceData says by how much); every summary, R-hat and
 #: ESS is computed on all draws before.
@@ -573,6 +578,12 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     if len(onsets) < MIN_ONSETS:
         raise DrumrollError(f"{name}: only {len(onsets)} onsets{of_roll}; at least "
                             f"{MIN_ONSETS} are needed to estimate anything")
+    per_bounce = float(np.median(np.diff(onsets.time_s) / np.diff(fitted.data.bounces)))
+    if per_bounce > LONGEST_FLIGHT_S:
+        raise DrumrollError(f"{name}: the onsets{of_roll} are {per_bounce:g} s apart per bounce "
+                            f"(median), longer than any bounce's flight ({LONGEST_FLIGHT_S:g} s "
+                            "is a rebound of 120 m): are the times in seconds? (milliseconds "
+                            "must be divided by 1000)")
     say(f"{len(onsets)} onsets{of_roll}, from {onsets.time_s[0]:.4f} s to "
         f"{onsets.time_s[-1]:.4f} s")
     recording = None if isinstance(source, OnsetTable) else Path(source)

@@ -108,6 +108,8 @@ def test_sigterm_stops_everything_and_keeps_nothing_half_written(tmp_path, stage
      "sigma_s -0.001 is not a timing error"),
     ("time_s,sigma_s\n0.5,0.0001\n0.7,nan\n0.88,0.0001\n1.04,0.0001\n",
      "sigma_s nan is not a timing error"),
+    # milliseconds: fitted with every parameter at its prior's edge under Student-t noise
+    ("time_s\n100\n288\n465\n630\n785\n", "are the times in seconds?"),
 ])
 def test_onset_lists_that_are_no_recording_are_refused_before_any_work(tmp_path, capsys, ball,
                                                                        rows, message):
