@@ -48,6 +48,19 @@ def test_good_config_runs(tmp_path, capsys):
     assert "pendulum" in out and "small-angle" in out
 
 
+def test_a_byte_order_mark_is_no_toml_statement(tmp_path, capsys):
+    """Windows editors save UTF-8 with a byte-order mark first: read as text, not refused as
+    "invalid TOML (at line 1, column 1)"; a file in another encoding is named as such."""
+    path = tmp_path / "config.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + GOOD.encode())
+    assert main(["predict", str(path), "--draws", "200"]) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    path.write_bytes(GOOD.replace("[priors]", "# pr\u00e9-set\n[priors]").encode("latin-1"))
+    assert main(["predict", str(path), "--draws", "200"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not UTF-8 text" in err[0] and "save the file as UTF-8" in err[0]
+
+
 BAD_CONFIGS = {
     "malformed TOML": (replace("radius_mm = 7.5", "radius_mm = = 7.5"), ["line 8", "column"]),
     "unknown top-level key": (replace('compare = ["small-angle"]', 'compair = ["small-angle"]'),
@@ -60,6 +73,12 @@ BAD_CONFIGS = {
                                        ["priors.pivot_mm", "sd"]),
     "unknown model": (replace('model = "pendulum"', 'model = "pendelum"'),
                       ["model", "'pendulum'"]),
+    # a top-level key written after a [section] header belongs to that section in TOML: it
+    # was reported as the default model's missing [stick], never named
+    "model written under a section": (
+        'gravity_m_s2 = 9.81\n[sampler]\nseed = 1\nmodel = "powerlaw"\ncompare = []\n'
+        '[priors]\nalpha = { dist = "uniform", low = 0.5, high = 1.0 }\n',
+        ["sampler.model", "belongs at the top of the file"]),
     "wrong type": (replace("length_mm = 348", 'length_mm = "348"'),
                    ["stick.length_mm", "expected a number"]),
     "wrong type of section": (replace("[stick]", "stick = 3\n[stack]"), ["stick"]),

@@ -183,13 +183,15 @@ def read_toml(path: Path, what: str, prefix: str = "") -> dict[str, Any]:
     """
     lead = f"{prefix}{path}"
     try:
-        return tomllib.loads(path.read_bytes().decode("utf-8"))
+        # utf-8-sig: the byte-order mark Windows editors put first is no TOML statement.
+        return tomllib.loads(path.read_bytes().decode("utf-8-sig"))
     except FileNotFoundError:
         raise ConfigError(f"{lead}: no such {what}") from None
     except IsADirectoryError:
         raise ConfigError(f"{lead}: is a directory, expected a TOML {what}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{lead}: not a text file (expected TOML)") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{lead}: not UTF-8 text at byte {exc.start} (TOML is UTF-8: save "
+                          "the file as UTF-8)") from None
     except OSError as exc:
         raise ConfigError(f"{lead}: cannot read ({exc.strerror})") from None
     except tomllib.TOMLDecodeError as exc:
@@ -200,6 +202,18 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
     """Validate an already-parsed TOML document (see :func:`load_config`)."""
     raw = dict(raw)
     check_keys(raw, (*_TOP_LEVEL, *SECTIONS), "")
+    # The sections first: a top-level key written after a [section] header belongs to that
+    # section in TOML, and its error there (model under [sampler]) says what went wrong,
+    # where the default model's needs would speak of something else.
+    for name in (*SECTIONS, "stick", "priors"):
+        misplaced = [k for k in ("model", "compare", "gravity_m_s2")
+                     if isinstance(raw.get(name), dict) and k in raw[name]]
+        if misplaced:
+            raise ConfigError(f"{name}.{misplaced[0]}: unknown key; {misplaced[0]} belongs at "
+                              f"the top of the file, before the first [section] (in TOML a "
+                              f"key after [{name}] belongs to [{name}])")
+    sections = {name: _parse_section(raw[name], name)
+                for name in SECTIONS if name in raw and name in _SECTION_PARSERS}
     model = model_name(raw.get("model", "pendulum"), "model")
     compare = _parse_compare(raw.get("compare", []), model)
     gravity = float(number(raw.get("gravity_m_s2", STANDARD_GRAVITY), "gravity_m_s2",
@@ -214,8 +228,6 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
                            has_stick=stick is not None)
     if stick is not None and all(k in priors for k in ("pivot", "height")):
         _check_geometry(stick, priors)
-    sections = {name: _parse_section(raw[name], name)
-                for name in SECTIONS if name in raw and name in _SECTION_PARSERS}
     return Config(model=model, compare=compare, priors=priors, stick=stick, gravity=gravity,
                   sections=sections, raw=raw, path=path)
 
