@@ -226,3 +226,13 @@ def test_a_joint_fit_keeps_each_runs_numbering(joint_folder, tmp_path, capsys):
     # was its third flight's: 0.183 s against the geometry's 0.225 s)
     predicted = b["computed_t_b_pendulum"]
     assert abs(b["fitted_t_b"]["value"] - predicted["value"]) < 2 * predicted["err"]
+
+
+def test_a_cache_folder_that_cannot_be_written_names_the_cache(folder, capsys):
+    """The cache's folder refused (here /proc, which refuses root too): the line says it is
+    the cache's, and how to do without it; it named the folder alone."""
+    status = main(["table", str(folder / "runs.toml"), "-q", "--cache-dir",
+                   "/proc/drumroll-cache"])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and "\n" not in err
+    assert "cannot write there" in err and "cache" in err and "--no-cache" in err

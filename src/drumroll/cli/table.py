@@ -162,7 +162,11 @@ def _check_cache_folder(folder: Path) -> None:
     if not existing.is_dir():
         raise DrumrollError(f"{existing}: is not a directory; the cache needs a folder "
                             "(--cache-dir DIR, or --no-cache)")
-    check_folder_writable(existing)
+    try:
+        check_folder_writable(existing)
+    except DrumrollError as exc:
+        raise DrumrollError(f"{exc} (the cache of the runs' fits goes into {folder}: "
+                            "--cache-dir DIR for another folder, or --no-cache)") from None
 
 
 def main(argv: list[str] | None = None) -> int:
