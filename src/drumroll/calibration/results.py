@@ -39,6 +39,9 @@ class CalibrationSettings(Record):
         Seed every simulation's seeds derive from.
     audio
         Whether the rolls were also rendered and heard by the extractor.
+    sound
+        Whose sound they were rendered with: ``"config"`` (its ``[simulate]`` section) or
+        ``"default"`` (``drumroll simulate``'s, the config having none).
     noise
         The config's ``[likelihood] noise``.
     sampler
@@ -52,6 +55,7 @@ class CalibrationSettings(Record):
     rank_draws: int = RANK_DRAWS
     seed: int = 0
     audio: bool = False
+    sound: str = "config"
     noise: str = "gaussian"
     sampler: dict[str, Any] = field(default_factory=dict)
 

@@ -205,14 +205,7 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
     # The sections first: a top-level key written after a [section] header belongs to that
     # section in TOML, and its error there (model under [sampler]) says what went wrong,
     # where the default model's needs would speak of something else.
-    for name in (*SECTIONS, "stick", "priors"):
-        misplaced = [k for k in ("model", "compare", "gravity_m_s2")
-                     if isinstance(raw.get(name), dict) and k in raw[name]]
-        if misplaced:
-            raise ConfigError(f"{name}.{misplaced[0]}: unknown key; {misplaced[0]} belongs at "
-                              f"the top of the file, before the first [section] (in TOML a "
-                              f"key after [{name}] belongs to [{name}])")
-    sections = {name: _parse_section(raw[name], name)
+    sections = {name: _parse_section_here(raw[name], name)
                 for name in SECTIONS if name in raw and name in _SECTION_PARSERS}
     model = model_name(raw.get("model", "pendulum"), "model")
     compare = _parse_compare(raw.get("compare", []), model)
@@ -230,6 +223,20 @@ def parse_config(raw: Mapping[str, Any], path: Path | None = None) -> Config:
         _check_geometry(stick, priors)
     return Config(model=model, compare=compare, priors=priors, stick=stick, gravity=gravity,
                   sections=sections, raw=raw, path=path)
+
+
+def _parse_section_here(value: Any, name: str) -> Any:
+    """:func:`_parse_section`, saying where a top-level key it does not take belongs."""
+    try:
+        return _parse_section(value, name)
+    except ConfigError as exc:
+        misplaced = next((k for k in ("model", "compare", "gravity_m_s2")
+                          if str(exc).startswith(f"{name}.{k}: unknown key")), None)
+        if misplaced is None:
+            raise
+        raise ConfigError(f"{name}.{misplaced}: unknown key; {misplaced} belongs at the top of "
+                          f"the file, before the first [section] (in TOML a key after "
+                          f"[{name}] belongs to [{name}])") from None
 
 
 def model_name(value: Any, where: str) -> str:

@@ -209,14 +209,18 @@ def _audio_blocks(result: Any) -> tuple[Block, ...]:
     right = [h.first == 0 and h.misnumbered == 0 for h in heard]
     fraction = sorted(h.n_heard / h.n_impacts for h in heard)
     errors = sorted(h.median_error_ms for h in heard if h.median_error_ms is not None)
+    sound = ((", with the config's ", Code("[simulate]"), " sound: its ")
+             if result.settings.sound == "config" else
+             (", with its default sound, the config having no ", Code("[simulate]"),
+              " section: its "))
     record = Paragraph((
         "Each simulated roll was also rendered as a recording (the renderer of ",
-        Code("drumroll simulate"), ", with the config's ", Code("[simulate]"), " sound: its "
+        Code("drumroll simulate"), *sound,
         "room, noise, hum and stray sounds), its onsets found by the extractor and fitted in "
         f"the same way, against the same truths. Of the {n} recordings the extractor numbered "
         f"the roll from its first impact in {sum(h.first == 0 for h in heard)}, took a sound "
         f"before the roll for its first bounce in {sum(h.first < 0 for h in heard)} (the tap "
-        "the [simulate] section puts 0.2 to 1 s before the roll, where it lands near an "
+        "the sound puts 0.2 to 1 s before the roll, where it lands near an "
         "earlier bounce's place), and missed the first impact in "
         f"{sum(h.first > 0 for h in heard)}; {sum(not r for r in right)} rolls hold at least "
         "one onset whose number is not its impact's. It kept a median "
