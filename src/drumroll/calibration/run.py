@@ -408,8 +408,7 @@ def calibrate(config: Config | str | os.PathLike[str], n: int = 200, *,
     sampler.pop("seed", None)
     settings = CalibrationSettings(model=config.model, n=n, n_onsets=n_onsets,
                                    rank_draws=rank_draws, seed=seed, audio=audio,
-                                   sound=("config" if config.section("simulate") is not None
-                                          else "default"),
+                                   sound="config" if "simulate" in config.raw else "default",
                                    noise=estimate_settings(config).noise, sampler=sampler)
     options = {"n_onsets": n_onsets, "rank_draws": rank_draws, "seed": seed, "audio": audio}
     path = None if config.path is None else str(config.path)

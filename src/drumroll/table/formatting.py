@@ -263,7 +263,7 @@ def to_csv(result: TableResult) -> str:
             cells += list(_split(row["vary"], 1))
         for key in COLUMNS:
             cells += list(_split(row[key]))
-        writer.writerow([*cells, row["preferred"] or "", " ".join(row["shared"])])
+        writer.writerow([*cells, _preferred(row), " ".join(row["shared"])])
     return buffer.getvalue()
 
 

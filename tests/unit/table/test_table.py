@@ -238,6 +238,7 @@ def test_csv_latex_json(fake_result):
     rows = list(csv.DictReader(io.StringIO(format_table(fake_result, "csv"))))
     assert rows[0]["pivot_mm"] == "131" and rows[0]["pivot_mm_err"] == "2"
     assert rows[1]["alpha"] == "0.880" and rows[1]["alpha_err"] == "0.010"
+    assert rows[0]["preferred"] == "undecided"  # as Markdown and LaTeX say (it was blank)
     latex = format_table(fake_result, "latex")
     assert r"\toprule" in latex and r"\num{0.880 \pm 0.010}" in latex
     document = json.loads(format_table(fake_result, "json"))
