@@ -59,6 +59,19 @@ def test_the_recording_is_never_overwritten_by_its_onsets(roll_flac, tmp_path, c
     assert copy.read_bytes() == path.read_bytes()
 
 
+@pytest.mark.parametrize("name", ["onsets.wav", "onsets"])
+def test_onsets_are_written_only_under_a_name_estimate_reads_as_onsets(roll_flac, tmp_path,
+                                                                       capsys, name):
+    """CSV written to ``out.wav`` (or a name without a suffix) is a file that estimate
+    then tries to decode as audio: refused before any work, naming the suffixes to use."""
+    path, _ = roll_flac
+    for option in ("-o", "--labels"):
+        assert main(["onsets", str(path), option, str(tmp_path / name)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and ".csv" in err[0] and "reads it back as onsets" in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_high_pass_above_what_the_rate_allows_is_refused(roll_flac, capsys):
     """--highpass past a tenth of the sample rate leaves no band to analyse: it was capped
     without a word (30 kHz on a 44.1 kHz recording gave hundreds of "impacts")."""

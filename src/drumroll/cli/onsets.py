@@ -11,6 +11,7 @@ from drumroll import fileio
 from drumroll.cli.arguments import non_negative_int, positive_float
 from drumroll.cli.progress import Progress
 from drumroll.errors import DrumrollError
+from drumroll.onsets.formats import ONSET_FILE_SUFFIXES
 from drumroll.onsets.table import COLUMNS
 
 
@@ -55,6 +56,12 @@ def run(args: argparse.Namespace) -> int:
         fileio.check_writable(path, overwrite=args.force, inputs=[args.audio])
     if len({p.resolve() for p in outputs}) < len(outputs):
         raise DrumrollError("-o, --labels and --plot name the same file: give each its own")
+    for option, path in (("-o", args.output), ("--labels", args.labels)):
+        # What estimate reads as onsets, not as audio, is told by the suffix.
+        if path and Path(path).suffix.lower() not in ONSET_FILE_SUFFIXES:
+            raise DrumrollError(f"{option} {path}: onsets are written as text; give the file "
+                                f"one of the suffixes {', '.join(ONSET_FILE_SUFFIXES)}, so that "
+                                "estimate reads it back as onsets")
     if args.plot:
         fileio.check_figure_suffix(args.plot)
     options = {} if args.highpass is None else {"highpass_hz": args.highpass}
