@@ -72,6 +72,24 @@ def test_onsets_are_written_only_under_a_name_estimate_reads_as_onsets(roll_flac
     assert list(tmp_path.iterdir()) == []
 
 
+def test_channels_that_cancel_when_mixed_are_named(roll_flac, tmp_path, capsys):
+    """A stereo file whose second channel is the first inverted (a microphone wired in
+    reverse) mixes to silence: said so in one line, not "no impact-like sound in it"; the
+    same channels in phase are read as the mono file is."""
+    path, _ = roll_flac
+    x, rate = sf.read(path)
+    inverted, in_phase = tmp_path / "inverted.wav", tmp_path / "in_phase.wav"
+    sf.write(inverted, np.stack([x, -x], axis=1), rate, subtype="PCM_24")
+    sf.write(in_phase, np.stack([x, x], axis=1), rate, subtype="PCM_24")
+    assert main(["onsets", str(inverted)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "channels cancel when mixed" in err[0]
+    assert main(["onsets", str(in_phase)]) == 0
+    stereo = capsys.readouterr().out
+    assert main(["onsets", str(path)]) == 0
+    assert capsys.readouterr().out == stereo
+
+
 def test_a_high_pass_above_what_the_rate_allows_is_refused(roll_flac, capsys):
     """--highpass past a tenth of the sample rate leaves no band to analyse: it was capped
     without a word (30 kHz on a 44.1 kHz recording gave hundreds of "impacts")."""

@@ -237,6 +237,12 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     for block in blocks:
         stream.feed(block)
     cands = stream.finish()
+    if len(cands) == 0 and n_channels > 1 and _channels_cancel(excerpt, n_channels,
+                                                               stream.total, rate):
+        raise AudioError(f"no drumroll found in {name}: its channels cancel when mixed to "
+                         "mono (one is the other with its polarity inverted, as a microphone "
+                         "wired in reverse gives): invert one channel, or keep one, in an "
+                         "audio editor")
     # The candidates are found on the mean of the channels; the onsets are timed on the
     # channel that hears them first.
     channel = earliest_channel(cands, n_channels, rate, odf, excerpt)
@@ -247,6 +253,24 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
                    lambda start, stop: excerpt(start, stop, channel))
     table = _table(rolls, cands, name, rate, all_candidates, channel)
     return table if info is None else _with_codec_floor(table, info)
+
+
+#: A mono mix this far under its channels (rms, here -20 dB) is cancellation, not a mix:
+#: channels of one sound add up (0 dB, or -3 dB when they are unrelated).
+_CANCELLED = 0.1
+
+
+def _channels_cancel(excerpt: Callable[..., np.ndarray], n_channels: int, frames: int,
+                     rate: int, seconds: float = 10.0) -> bool:
+    """Whether the mean of the channels is far quieter than the channels themselves over the
+    recording's first ``seconds``: a channel in reverse polarity, which mixing silences."""
+    n = min(frames, round(seconds * rate))
+    if n <= 0:
+        return False
+    mixed = float(np.sqrt(np.mean(excerpt(0, n) ** 2)))
+    each = float(np.sqrt(np.mean([np.mean(excerpt(0, n, ch) ** 2)
+                                  for ch in range(n_channels)])))
+    return each > 0.0 and mixed < _CANCELLED * each
 
 
 def _with_codec_floor(table: OnsetTable, info: AudioInfo) -> OnsetTable:
