@@ -30,6 +30,18 @@ class ConfigError(DrumrollError):
     """An invalid configuration file or value; the message names the key."""
 
 
+class UnknownKey(ConfigError):
+    """A key that its table does not take: ``key`` in ``where`` (a dotted section path, ''
+    for the top level), so that a caller can say where it belongs instead."""
+
+    def __init__(self, message: str, where: str = "", key: str = "") -> None:
+        super().__init__(message)
+        self.where, self.key = where, key
+
+    def __reduce__(self):  # raised in worker processes: rebuilt from its own arguments
+        return type(self), (str(self), self.where, self.key)
+
+
 class AudioError(DrumrollError):
     """An audio file that cannot be read or holds nothing usable."""
 

@@ -95,14 +95,15 @@ def check_writable(path: str | os.PathLike[str], *, overwrite: bool = False,
     path = Path(path)
     if path.is_dir():
         raise DrumrollError(f"{path}: is a directory, expected a file name to write")
-    if path.exists() and not path.is_file():
+    exists = path.exists()
+    if exists and not path.is_file():
         raise DrumrollError(f"{path}: is not a regular file (a device, pipe or socket): "
                             "outputs are written as new files; give a file name")
-    for source in inputs:
-        if path.exists() and Path(source).exists() and os.path.samefile(path, source):
-            raise DrumrollError(f"{path}: is an input of this command; give the output "
-                                "another name")
-    if path.exists() and not overwrite:
+    if exists and any(Path(source).exists() and os.path.samefile(path, source)
+                      for source in inputs):
+        raise DrumrollError(f"{path}: is an input of this command; give the output another "
+                            "name")
+    if exists and not overwrite:
         raise DrumrollError(f"{path}: already exists (use --force to overwrite it)")
     check_folder_writable(path.parent)
     return path

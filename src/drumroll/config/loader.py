@@ -39,7 +39,7 @@ import numpy as np
 from drumroll.config.priors_section import parse_prior
 from drumroll.config.validate import check_keys, number, string, table
 from drumroll.distributions import Distribution, Fixed
-from drumroll.errors import ConfigError
+from drumroll.errors import ConfigError, UnknownKey
 from drumroll.physics import MODELS, STANDARD_GRAVITY, STICK_SHAPES
 from drumroll.physics.geometry import StickGeometry
 from drumroll.physics.models import canonical_name, parameter_keys
@@ -229,12 +229,10 @@ def _parse_section_here(value: Any, name: str) -> Any:
     """:func:`_parse_section`, saying where a top-level key it does not take belongs."""
     try:
         return _parse_section(value, name)
-    except ConfigError as exc:
-        misplaced = next((k for k in ("model", "compare", "gravity_m_s2")
-                          if str(exc).startswith(f"{name}.{k}: unknown key")), None)
-        if misplaced is None:
+    except UnknownKey as exc:
+        if exc.where != name or exc.key not in ("model", "compare", "gravity_m_s2"):
             raise
-        raise ConfigError(f"{name}.{misplaced}: unknown key; {misplaced} belongs at the top of "
+        raise ConfigError(f"{name}.{exc.key}: unknown key; {exc.key} belongs at the top of "
                           f"the file, before the first [section] (in TOML a key after "
                           f"[{name}] belongs to [{name}])") from None
 

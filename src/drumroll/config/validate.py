@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from drumroll.errors import ConfigError
+from drumroll.errors import ConfigError, UnknownKey
 
 
 def did_you_mean(word: str, choices: Iterable[str]) -> str:
@@ -28,7 +28,8 @@ def check_keys(table: Mapping[str, Any], allowed: Iterable[str], where: str) -> 
     allowed = tuple(allowed)
     for key in table:
         if key not in allowed:
-            raise ConfigError(f"{join(where, key)}: unknown key{did_you_mean(key, allowed)}")
+            raise UnknownKey(f"{join(where, key)}: unknown key{did_you_mean(key, allowed)}",
+                             where, key)
 
 
 def join(where: str, key: str) -> str:

@@ -143,6 +143,12 @@ def _listed(keys: list[str] | tuple[str, ...]) -> Content:
     return content(*[(", " if i else "", _label(k)) for i, k in enumerate(keys)])
 
 
+def _can_fail(level: Any) -> bool:
+    """Whether the level's coverage tests can fail at all (not with one or two
+    simulations: :attr:`~drumroll.inference.calibration.Coverage.can_fail`)."""
+    return all(level.quantities[k].coverage_90.can_fail for k in level.parameters)
+
+
 def _simulations(n: int) -> str:
     return f"{n} simulation{'' if n == 1 else 's'}"
 
@@ -160,7 +166,7 @@ def headline(result: Any) -> tuple[Content, ...]:
         source = ("the simulated onsets" if name == "onsets"
                   else "the onsets the extractor found in each roll's recording")
         failed = level.failed()
-        untested = not all(level.quantities[k].coverage_90.can_fail for k in level.parameters)
+        untested = not _can_fail(level)
         if not failed and untested:
             verdict = content(Strong(("Not tested",)), f": with {_simulations(settings.n)} "
                               "every coverage lies inside its binomial 99 % band, whatever "
@@ -185,7 +191,7 @@ def headline(result: Any) -> tuple[Content, ...]:
                        else content("fail: ", _listed(derived_failed), "."))
         paragraphs.append(content(f"Fitting {source}: ", verdict, ".", derived))
     if (any(q.chi_square.dof == 0 for q in result.onsets.quantities.values())
-            and all(q.coverage_90.can_fail for q in result.onsets.quantities.values())):
+            and _can_fail(result.onsets)):
         paragraphs.append((f"{_simulations(settings.n)} {'is' if settings.n == 1 else 'are'} "
                            "too few for the χ² test of the "
                            f"ranks (it needs {2 * MIN_EXPECTED} or more): the coverage alone "
