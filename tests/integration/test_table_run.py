@@ -236,3 +236,26 @@ def test_a_cache_folder_that_cannot_be_written_names_the_cache(folder, capsys):
     err = capsys.readouterr().err.strip()
     assert status == 2 and "\n" not in err
     assert "cannot write there" in err and "cache" in err and "--no-cache" in err
+
+
+@pytest.mark.parametrize(("fmt", "name"), [("csv", "table.md"), ("markdown", "table.csv"),
+                                           ("json", "table.tex")])
+def test_a_format_its_file_name_contradicts_is_refused_before_any_run(fmt, name, tmp_path,
+                                                                      capsys):
+    """``--format csv -o table.md`` once wrote CSV into a file named as Markdown (and
+    ``--format markdown -o table.csv`` Markdown into .csv): one line, exit 2, nothing written
+    and nothing run (the runs file named does not even exist)."""
+    status = main(["table", str(tmp_path / "absent.toml"), "-q", "--format", fmt,
+                   "-o", str(tmp_path / name)])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and "\n" not in err
+    assert f"--format {fmt}" in err and "leave --format out" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_format_with_a_suffix_no_format_claims_is_written_as_asked(folder, tmp_path):
+    """An explicit format with a suffix of no format (``.txt``) is written as asked."""
+    out = tmp_path / "table.txt"
+    assert main(["table", str(folder / "runs.toml"), "-q", "--format", "csv",
+                 "-o", str(out)]) == 0
+    assert out.read_text().splitlines()[0].startswith("label,")

@@ -86,10 +86,18 @@ def dask_executor(address: str) -> Iterator[Executor]:
 def run(args: argparse.Namespace) -> int:
     """Run ``table``: validate everything, then estimate, then write."""
     from drumroll.table import format_table, load_runs, run_table
-    from drumroll.table.formatting import format_for
+    from drumroll.table.formatting import FORMATS, format_for, format_named_by
 
+    suffix = args.output.suffix if args.output else ""
+    named = format_named_by(suffix)
+    if args.format and named and named != args.format:
+        # A CSV written to table.md (or Markdown to table.csv) is a file its suffix lies about.
+        raise DrumrollError(f"{args.output}: --format {args.format} writes "
+                            f"{FORMATS[args.format].suffixes[0]} files, and {suffix} is "
+                            f"{named}'s; name the file *{FORMATS[args.format].suffixes[0]} "
+                            "or leave --format out")
     runs = load_runs(args.runs)
-    fmt = args.format or format_for(args.output.suffix if args.output else "")
+    fmt = args.format or format_for(suffix)
     # A Markdown table written to a file gets its HTML page beside it (Figure 5 embedded).
     page = None
     if args.output is not None and fmt == "markdown":

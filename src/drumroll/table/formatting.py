@@ -329,10 +329,14 @@ FORMATS: dict[str, TableFormat] = {f.name: f for f in (
 )}
 
 
+def format_named_by(suffix: str) -> str | None:
+    """The name of the format whose files end in ``suffix`` (None for other suffixes)."""
+    return next((name for name, f in FORMATS.items() if suffix.lower() in f.suffixes), None)
+
+
 def format_for(suffix: str) -> str:
     """The name of the format a file suffix chooses (the default, Markdown, for others)."""
-    return next((name for name, f in FORMATS.items() if suffix.lower() in f.suffixes),
-                next(iter(FORMATS)))
+    return format_named_by(suffix) or next(iter(FORMATS))
 
 
 def format_table(result: TableResult, fmt: str) -> str:
