@@ -135,10 +135,15 @@ def diagnostics(idata: Fit, chain: Chain, loo: LooResult | None,
                         "0.1–0.7; the sampler is struggling")
     if loo is not None and loo.bad_onsets:
         listed = ", ".join(str(i) for i in loo.bad_onsets)
-        warnings.append(f"{model}: PSIS-LOO is approximate for onset(s) {listed} (Pareto k > "
-                        "0.7): leaving them out moves the posterior a lot, because they are "
-                        "influential (the first onset anchors every flight) or fit badly; "
-                        "check them in residuals.png, and treat a small Δelpd with care")
+        # Named by bounce number, as every other message names them (a roll with gaps or
+        # numbered from a missed impact has onset i at another bounce).
+        one = len(loo.bad_onsets) == 1
+        which, it, they, fit = (("the onset of bounce", "it", "it is", "fits") if one else
+                                ("the onsets of bounces", "them", "they are", "fit"))
+        warnings.append(f"{model}: PSIS-LOO is approximate for {which} {listed} (Pareto k > "
+                        f"0.7): leaving {it} out moves the posterior a lot, because {they} "
+                        f"influential (the first onset anchors every flight) or {fit} badly; "
+                        f"check {it} in residuals.png, and treat a small Δelpd with care")
     finite_tau = chain.tau[np.isfinite(chain.tau)]
     return Diagnostics(
         converged=bool(chain.converged), n_steps=int(chain.n_steps), burn=int(chain.burn),

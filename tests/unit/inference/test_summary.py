@@ -179,7 +179,12 @@ def test_each_missed_target_is_warned_about(fit):
     loo = LooResult(elpd=0.0, se=0.0, pointwise=np.zeros(6),
                     pareto_k=np.array([0.9, 0.1, 0.2, 0.75, 0.3, 0.7]), bounces=BOUNCES)
     text, n = warned(loo=loo)
-    assert n == 1 and "approximate for onset(s) 0, 4 (Pareto k > 0.7)" in text
+    assert n == 1 and "approximate for the onsets of bounces 0, 4 (Pareto k > 0.7)" in text
+    loo = LooResult(elpd=0.0, se=0.0, pointwise=np.zeros(6),
+                    pareto_k=np.array([0.1, 0.1, 0.2, 0.75, 0.3, 0.7]), bounces=BOUNCES)
+    text, n = warned(loo=loo)
+    assert n == 1
+    assert "approximate for the onset of bounce 4 (Pareto k > 0.7): leaving it out" in text
 
 
 def test_r_hat_warning_when_a_group_of_walkers_disagrees():
