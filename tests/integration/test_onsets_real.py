@@ -79,6 +79,24 @@ def test_the_real_ping_pong_is_found_from_its_first_impact():
     assert len(table) > truth.size  # and on into the bounces too faint to reference
 
 
+@pytest.mark.parametrize("lead_s", [0.05, 0.1, 0.2])
+def test_digital_silence_before_a_real_recording_is_no_roll(lead_s):
+    """The real ping-pong after a stretch of exact zeros, as a recorder that pads its start
+    or an editor writes it: the detection function's statistics counted the silence in, so
+    the room's noise just after it (a ratio of 0 dB by construction, a MAD a third of the
+    noise's) stood out as a roll of four "impacts" before the real one (0.100-0.222 s behind
+    0.1 s of zeros). One roll, from the first impact, its onsets at the reference's."""
+    x, sr = sf.read(DATA / "pingpong.wav")
+    truth = np.asarray(json.loads((DATA / "pingpong.truth.json").read_text())["onset_times_s"])
+    table = detect(np.concatenate([np.zeros(round(lead_s * sr)), x]), sr)
+    assert len(table.rolls) == 1 and table.bounce[0] == 0
+    ref = table.time_s - lead_s <= truth[-1] + 0.002  # the reference stops at its 50th
+    err = table.time_s[ref] - lead_s - truth[table.bounce[ref]]
+    offset = np.median(err)
+    assert abs(err[0] - offset) < 0.5e-3  # the first at the same point of its sound
+    assert np.count_nonzero(np.abs(err - offset) < 2e-3) >= 49  # as without the silence
+
+
 def test_ping_pong_rolls_one_after_another_are_not_chained():
     """The real ping-pong three times in a row (0.4 s from one roll's last bounce to the
     next one's drop): the tracker chained the end of the first roll into the next two,

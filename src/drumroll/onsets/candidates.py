@@ -80,11 +80,26 @@ def combined_z(energies: list[np.ndarray], pre: int, post: int, segment: int,
     combined = np.zeros(energies[0].size)
     stride = max(1, post // 2)  # the ratio is a moving window: neighbours are alike
     bands, total = spreads if spreads is not None else ((0.0,) * len(energies), 0.0)
+    silent = digital_silence(energies, pre, post)
     for energy, spread in zip(energies, bands, strict=True):
         odf = rise_ratio_db(energy, pre, post, floor)
         combined += np.maximum(local_robust_z(odf, segment, valid=inner, stride=stride,
-                                              noise_sigma=spread), 0.0)
-    return local_robust_z(combined, segment, valid=inner, stride=stride, noise_sigma=total)
+                                              noise_sigma=spread, silent=silent), 0.0)
+    return local_robust_z(combined, segment, valid=inner, stride=stride, noise_sigma=total,
+                          silent=silent)
+
+
+def digital_silence(energies: list[np.ndarray], pre: int, post: int) -> np.ndarray:
+    """Frames whose detection-function windows (``pre`` frames before, ``post`` after) hold
+    only exact zeros in every band: the rise ratio there is the floor's over itself, 0 dB by
+    construction, not a measurement (:func:`~.peaks.local_robust_z` leaves them out)."""
+    total = np.sum(energies, axis=0)
+    c = np.concatenate(([0], np.cumsum(total > 0.0)))
+    n = total.size
+    silent = np.zeros(n, dtype=bool)
+    f = np.arange(pre, n - post + 1)
+    silent[f] = c[f + post] - c[f - pre] == 0
+    return silent
 
 
 def plateau(z: np.ndarray, f: int, reach: int, within: float = 1.0) -> tuple[int, int]:

@@ -42,7 +42,7 @@ def local_maxima(z: np.ndarray, threshold: float, half_width: int) -> np.ndarray
 
 def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
                    valid: slice | None = None, stride: int = 1,
-                   noise_sigma: float = 0.0) -> np.ndarray:
+                   noise_sigma: float = 0.0, silent: np.ndarray | None = None) -> np.ndarray:
     """Standardise ``odf`` by a slowly varying median and MAD.
 
     The median and MAD are taken over segments of ``segment`` frames, then smoothed by a
@@ -68,24 +68,40 @@ def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
         under :data:`STEADY` of it, the frames are standardised by it instead: after a smooth
         decay, the noise it decays into is judged as noise, not against the decay's
         steadiness (it would read as rises, candidates the tracker can follow as a roll).
+    silent
+        Frames (a mask over ``odf``) that measured nothing: both of the detection function's
+        windows in digital silence, exact zeros that no microphone gives (a recorder's
+        buffer before it captured, an editor's padding, a noise gate shut). They are left
+        out of the statistics: counted in, a stretch of them makes a segment's median 0 and
+        its MAD a fraction of the noise's, so the noise just after the silence, measured by
+        that, stands out as a run of impacts.
     """
     ref = odf if valid is None else odf[valid]
     offset = 0 if valid is None else (valid.start or 0)
     if ref.size == 0:
         return np.zeros_like(odf)
+    skip = None
+    if silent is not None:
+        skip = silent if valid is None else silent[valid]
+        skip = skip if skip.any() else None
     n_full, rest = divmod(ref.size, segment)
     med, mad = [], []
+    if skip is not None:  # the rare file with digital silence: NaN-aware statistics
+        ref = np.where(skip, np.nan, ref)
+    median = np.median if skip is None else _nan_median
     if n_full:  # all whole segments at once (no per-segment Python loop)
         blocks = ref[: n_full * segment].reshape(n_full, segment)[:, ::max(stride, 1)]
-        m = np.median(blocks, axis=1)
+        m = median(blocks, axis=1)
         med.append(m)
-        mad.append(np.median(np.abs(blocks - m[:, None]), axis=1))
+        mad.append(median(np.abs(blocks - m[:, None]), axis=1))
     if rest:
         part = ref[n_full * segment:]
-        m_last = float(np.median(part))
+        m_last = float(median(part))
         med.append(np.array([m_last]))
-        mad.append(np.array([np.median(np.abs(part - m_last))]))
+        mad.append(np.array([median(np.abs(part - m_last))]))
     med_a, mad_a = np.concatenate(med), np.concatenate(mad)
+    if skip is not None:
+        med_a, mad_a = _from_nearest_measured(med_a), _from_nearest_measured(mad_a)
     n_seg = med_a.size
     if n_seg > 1:
         med_a = median_filter1d(med_a, 2 * reach + 1)
@@ -94,3 +110,29 @@ def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
     sigma = np.where(sigma < STEADY * noise_sigma, noise_sigma, np.maximum(sigma, 1e-3))
     seg_of = np.clip((np.arange(odf.size) - offset) // segment, 0, n_seg - 1)
     return (odf - med_a[seg_of]) / sigma[seg_of]
+
+
+def _nan_median(x: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """``np.nanmedian``, NaN (without a warning) where a slice holds only NaN."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmedian(x, axis=axis)
+
+
+def _from_nearest_measured(values: np.ndarray) -> np.ndarray:
+    """Segments' statistics with those of segments that measured nothing (NaN: all silent)
+    taken from the nearest segment that did; 0 where none did (the spread then falls back to
+    noise's, :data:`STEADY`)."""
+    measured = np.flatnonzero(np.isfinite(values))
+    if measured.size == values.size:
+        return values
+    if measured.size == 0:
+        return np.zeros_like(values)
+    at = np.arange(values.size)
+    right = np.clip(np.searchsorted(measured, at), 0, measured.size - 1)
+    left = np.clip(right - 1, 0, measured.size - 1)
+    nearest = np.where(np.abs(measured[left] - at) <= np.abs(measured[right] - at),
+                       measured[left], measured[right])
+    return values[nearest]
