@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pytest
 import soundfile as sf
@@ -88,6 +90,23 @@ def test_channels_that_cancel_when_mixed_are_named(roll_flac, tmp_path, capsys):
     stereo = capsys.readouterr().out
     assert main(["onsets", str(path)]) == 0
     assert capsys.readouterr().out == stereo
+
+
+def test_a_stereo_file_with_a_silent_channel_reads_as_its_live_channel(roll_flac, tmp_path,
+                                                                      capsys):
+    """A channel of zeros beside the recording (its left or its right) once timed the roll on
+    the silence, or ended in an internal error: exit 0 and the mono file's onsets."""
+    path, _ = roll_flac
+    x, rate = sf.read(path)
+    def onsets(audio) -> np.ndarray:
+        assert main(["onsets", str(audio)]) == 0
+        return np.loadtxt(io.StringIO(capsys.readouterr().out), delimiter=",", skiprows=1)
+
+    mono = onsets(path)
+    for side, channels in (("left", [np.zeros_like(x), x]), ("right", [x, np.zeros_like(x)])):
+        stereo = tmp_path / f"dead_{side}.wav"
+        sf.write(stereo, np.stack(channels, axis=1), rate, subtype="PCM_24")
+        np.testing.assert_allclose(onsets(stereo), mono, rtol=1e-6)
 
 
 def test_a_high_pass_above_what_the_rate_allows_is_refused(roll_flac, capsys):

@@ -97,6 +97,24 @@ def test_digital_silence_before_a_real_recording_is_no_roll(lead_s):
     assert np.count_nonzero(np.abs(err - offset) < 2e-3) >= 49  # as without the silence
 
 
+@pytest.mark.parametrize("layout", ["dead right", "dead left", "dead middle of three"])
+def test_a_dead_channel_leaves_the_onsets_those_of_the_live_one(layout):
+    """The real ping-pong in a file with a channel of exact zeros beside it (a mono microphone
+    on a stereo interface, a side muted in an editor): the silent channel's "onsets", put
+    anywhere in each search, came first, so the roll was timed on it (onsets of amplitude 0,
+    SNR -60 dB, sd 2 ms) or the follower met a NaN and stopped with an internal error. The
+    channels compared are those that hear the impact: the onsets are the mono file's, to the
+    sample."""
+    x, sr = sf.read(DATA / "pingpong.wav")
+    mono = detect(x, sr)
+    zeros = np.zeros_like(x)
+    channels = {"dead right": [x, zeros], "dead left": [zeros, x],
+                "dead middle of three": [x, zeros, x]}[layout]
+    table = detect(np.stack(channels, axis=1), sr)
+    np.testing.assert_array_equal(table.time_s, mono.time_s)
+    np.testing.assert_allclose(table.sigma_s, mono.sigma_s, rtol=1e-6)  # the mix's rounding
+
+
 def test_ping_pong_rolls_one_after_another_are_not_chained():
     """The real ping-pong three times in a row (0.4 s from one roll's last bounce to the
     next one's drop): the tracker chained the end of the first roll into the next two,

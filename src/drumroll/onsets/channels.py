@@ -6,7 +6,9 @@ of the room, and averaging the two smears every onset over their delay. The impa
 timed on the channel that hears them first: the loudest candidates are timed on every
 channel, and the channel whose onsets come earliest (the median over the candidates of its
 lead over the others) is the one. Channels that agree to within a sample are averaged, as a
-mono recording is.
+mono recording is. A channel votes only on the impacts it hears (its own sound above what
+was there before it): a dead input or a muted side, exact zeros or hiss, would otherwise
+place its "onset" anywhere in the search, often first, and have the roll timed on nothing.
 """
 
 from __future__ import annotations
@@ -50,15 +52,31 @@ def earliest_channel(c: Candidates, channels: int, rate: int, odf: OdfParams,
     settle = settle_samples(wide.sos, rate)
     pre, search, post = (round(v * rate) for v in (_PRE_S, _SEARCH_S, _POST_S))
     loudest = np.argsort(-c.z)[:_LOUDEST]
-    times = np.empty((loudest.size, channels))
+    times = np.full((loudest.size, channels), np.nan)
     for i, k in enumerate(loudest):
         guess = round(c.time_s[k] * rate)
         lo, hi = guess - pre - search - settle, guess + search + post
         for ch in range(channels):
             r = refine_window(excerpt(lo, hi, ch), lo, guess, rate, wide.filter, settle,
                               pre=pre + search, post=post, search=search)
-            times[i, ch] = r.sample
-    lead = np.median(times - times.min(axis=1, keepdims=True), axis=0)
-    if float(lead.max()) < 1.0:
+            # A channel times only an impact it hears: one that is silent there (a dead
+            # input, a side muted in an editor: exact zeros, or its noise alone) puts its
+            # "onset" anywhere in the search, often first, and would be chosen to time the
+            # roll on nothing.
+            if r.amplitude > 0.0 and r.snr_db > 0.0:
+                times[i, ch] = r.sample
+    heard = np.isfinite(times)
+    both = heard.sum(axis=1) >= 2  # a lead needs two channels hearing the same impact
+    if not both.any():
+        deaf = ~heard.any(axis=0)
+        # Every channel but one deaf: that one times the roll, alone.
+        return int(np.flatnonzero(~deaf)[0]) if deaf.sum() == channels - 1 else None
+    rows = times[both]
+    behind = rows - np.nanmin(rows, axis=1, keepdims=True)
+    # Each channel's median lag behind the first, over the impacts it hears (never heard
+    # with another: never first).
+    lead = np.array([np.median(col[np.isfinite(col)]) if np.isfinite(col).any() else np.inf
+                     for col in behind.T])
+    if np.all(np.isfinite(lead)) and float(lead.max()) < 1.0:
         return None
     return int(np.argmin(lead))
