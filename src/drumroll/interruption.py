@@ -8,7 +8,10 @@ is inside a weakref callback or a ``__del__`` (a garbage collection in the middl
 the outputs), Python prints the exception as "ignored" and goes on: the command would finish
 as if nothing had happened and exit 0. So the handler also records the signal, and the
 commands check for it where it matters (:func:`raise_if_interrupted`: before outputs are moved
-into place) and once more when they end.
+into place) and once more when they end. Inside a C extension's import the exception comes
+out as another one ("ImportError: initialization failed", seen in CI when SIGTERM met the
+sampling's first import of a module): whatever ends a command after a signal came is the
+signal's doing (:func:`pending`), not a fault to report.
 """
 
 from __future__ import annotations
@@ -64,6 +67,12 @@ def restore(previous: dict[int, object] | None) -> None:
     """Put back the handlers :func:`install` replaced."""
     for signum, handler in (previous or {}).items():
         signal.signal(signum, handler)
+
+
+def pending() -> KeyboardInterrupt | None:
+    """The interruption a signal asked for, if one came since :func:`install` (None
+    otherwise), whatever became of its own exception."""
+    return None if _pending is None else _interrupt(_pending)
 
 
 def raise_if_interrupted() -> None:

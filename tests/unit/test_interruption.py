@@ -69,3 +69,42 @@ def test_a_hang_up_ends_the_command_as_sigterm_does_with_129(capsys):
 
     assert run_cli(make_parser, []) == 128 + signal.SIGHUP
     assert capsys.readouterr().err.strip().endswith("hung up; no partial output was kept")
+
+
+@pytest.mark.parametrize("becomes", [ImportError("initialization failed"),
+                                     OSError(5, "Input/output error"), ValueError("NaN")])
+def test_a_signal_whose_exception_became_another_still_ends_as_the_signal(capsys, becomes):
+    """SIGTERM during the sampling's first import of a C extension came out of the import as
+    "ImportError: initialization failed" and the command reported an internal error, exit 1
+    (seen in CI, tests/integration/test_faults.py). Whatever ends a command after a signal
+    came is the signal's: one line, exit 143."""
+    from drumroll.cli.main import run_cli
+
+    def command(args):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)  # the handler raises Terminated here
+        except KeyboardInterrupt:
+            raise becomes from None
+
+    def make_parser():
+        parser = argparse.ArgumentParser(prog="drumroll")
+        parser.set_defaults(func=command)
+        return parser
+
+    assert run_cli(make_parser, []) == 143
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["drumroll: terminated; no partial output was kept"]
+
+
+def test_an_error_without_a_signal_is_still_reported_as_itself(capsys):
+    """The same exceptions with no signal: an internal error, exit 1 (a stale signal of an
+    earlier command does not carry over: install() clears it)."""
+    from drumroll.cli.main import run_cli
+
+    def make_parser():
+        parser = argparse.ArgumentParser(prog="drumroll")
+        parser.set_defaults(func=lambda args: (_ for _ in ()).throw(ImportError("nope")))
+        return parser
+
+    assert run_cli(make_parser, []) == 1
+    assert "internal error" in capsys.readouterr().err

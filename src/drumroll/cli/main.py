@@ -169,37 +169,49 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         status = int(args.func(args) or 0)
         interruption.raise_if_interrupted()  # a signal whose exception Python swallowed
         return status
-    except DrumrollError as exc:
-        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
-        return exc.exit_code
     except KeyboardInterrupt as exc:
-        ended = exc if isinstance(exc, interruption.Terminated) else None
-        how = "interrupted" if ended is None else ended.how
-        print(f"{parser.prog}: {how}; no partial output was kept", file=sys.stderr)
-        return 130 if ended is None else 128 + ended.signum
-    except BrokenPipeError:  # e.g. `drumroll predict cfg.toml | head`
-        return 0
-    except OSError as exc:
-        if debug:
-            raise
-        if not fileio.no_space(exc):
-            return _internal_error(parser.prog, exc)
-        # A full disk met where no output is named (a library's own file): the user's.
-        reason, advice = fileio.NO_SPACE[exc.errno]
-        error = (fileio.no_space_error(exc.filename, exc) if exc.filename else
-                 DrumrollError(f"cannot write: {reason} ({advice})"))
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return error.exit_code
-    except Exception as exc:  # a fault of ours, not of the input: one line, exit 1
-        if debug:
-            raise
-        return _internal_error(parser.prog, exc)
+        return _stopped(parser.prog, exc)
+    except Exception as exc:
+        # After a signal, whatever ended the command is the signal's doing: its exception may
+        # have come out as another (an import it broke off) or caused one on its way out.
+        stopped = interruption.pending()
+        if stopped is not None:
+            return _stopped(parser.prog, stopped)
+        return _failed(parser.prog, exc, debug)
     finally:
         warnings.showwarning, sys.unraisablehook = show_warning, unraisable_hook
         logging.root.removeHandler(library_log)
         interruption.restore(previous)
         if size_limit is not None:
             signal.signal(signal.SIGXFSZ, size_limit)
+
+
+def _stopped(prog: str, exc: KeyboardInterrupt) -> int:
+    """Report a stop (Ctrl-C, SIGTERM, SIGHUP) in one line; the exit status 128 + signal."""
+    ended = exc if isinstance(exc, interruption.Terminated) else None
+    how = "interrupted" if ended is None else ended.how
+    print(f"{prog}: {how}; no partial output was kept", file=sys.stderr)
+    return 130 if ended is None else 128 + ended.signum
+
+
+def _failed(prog: str, exc: Exception, debug: bool) -> int:
+    """Report an exception that ended a command: the input's fault (one line, exit 2), a full
+    disk, a closed pipe, or a fault of ours (one line, exit 1; ``debug`` re-raises it)."""
+    if isinstance(exc, DrumrollError):
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    if isinstance(exc, BrokenPipeError):  # e.g. `drumroll predict cfg.toml | head`
+        return 0
+    if debug:
+        raise exc
+    if isinstance(exc, OSError) and fileio.no_space(exc):
+        # A full disk met where no output is named (a library's own file): the user's.
+        reason, advice = fileio.NO_SPACE[exc.errno]
+        error = (fileio.no_space_error(exc.filename, exc) if exc.filename else
+                 DrumrollError(f"cannot write: {reason} ({advice})"))
+        print(f"{prog}: error: {error}", file=sys.stderr)
+        return error.exit_code
+    return _internal_error(prog, exc)  # a fault of ours, not of the input
 
 
 def _internal_error(prog: str, exc: Exception) -> int:
