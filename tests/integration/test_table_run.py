@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -44,9 +43,12 @@ def test_table_values(folder):
 
 
 def test_unchanged_table_comes_from_the_cache(folder, capsys):
-    started = time.perf_counter()
+    # What the cache saves is said by the command (and measured in benchmarks/table.py), not
+    # timed here: a loaded machine is no slower cache.
+    cached = {p: p.stat().st_mtime_ns for p in (folder / ".drumroll-cache").glob("*.json")}
     assert main(["table", str(folder / "runs.toml")]) == 0
-    assert time.perf_counter() - started < 2.0
+    assert {p: p.stat().st_mtime_ns
+            for p in (folder / ".drumroll-cache").glob("*.json")} == cached  # nothing refitted
     out, err = capsys.readouterr()
     assert "2 of 2 runs from the cache" in err
     assert "| h80 | 131 ± 2 |" in out
