@@ -13,6 +13,10 @@ recognised, its reader and its writer (:data:`ONSET_FORMATS`).
   added by hand) has none but the fitted jitter.
 * ``text``: one time per line, seconds; one roll numbered 0, 1, 2, …
 
+A number may be written with a decimal comma (``0,1265``), as spreadsheets in many languages
+write it, wherever a comma cannot be the separator: a CSV separated by semicolons or tabs (or
+of one column), a label track, one time per line.
+
 so that hand-made and third-party onset lists can be fitted too.
 """
 
@@ -114,7 +118,14 @@ def read_onsets(path: str | os.PathLike[str]) -> OnsetTable:
     return table
 
 
+#: A number written with a decimal comma, as spreadsheets and text in many languages write
+#: it (``0,1265``): one comma between digits, nothing else that could separate two values.
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+(?:[eE][-+]?\d+)?\s*$")
+
+
 def _number(path: Path, n: int, text: str, what: str) -> float:
+    if _DECIMAL_COMMA.match(text):  # never a separator here: the line was split before
+        text = text.replace(",", ".")
     try:
         return float(text)
     except ValueError:
@@ -168,7 +179,8 @@ def _read_csv(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
         raise DrumrollError(f"{path}: line {lines[0][0]}: header lacks column time_s")
     cols: dict[str, list[float]] = {c: [] for c in header}
     for n, ln in lines[1:]:
-        parts = ln.split(separator)
+        # One column: a comma in a row can only be its decimal comma (0,1265).
+        parts = ln.split(separator) if len(header) > 1 else [ln]
         if len(parts) != len(header):
             raise DrumrollError(f"{path}: line {n}: expected {len(header)} "
                                 f"{CSV_SEPARATORS[separator]}-separated values, found "

@@ -123,6 +123,32 @@ def test_a_spreadsheets_csv_reads_whatever_its_separator(tmp_path, separator):
         read_onsets(path)
 
 
+@pytest.mark.parametrize(("name", "text"), [
+    ("sheet.csv", "time_s;sigma_s\r\n0,5;0,0001\r\n0,72;0,0002\r\n1,04;1e-4\r\n"),
+    ("sheet.csv", "time_s\tsigma_s\n0,5\t0,0001\n0,72\t0,0002\n1,04\t0,0001\n"),
+    ("column.csv", "time_s\n0,5\n0,72\n1,04\n"),
+    ("plain.txt", "0,5\n0,72\n1,04\n"),
+])
+def test_decimal_commas_are_read_where_a_comma_cannot_separate(tmp_path, name, text):
+    """A spreadsheet in a language with decimal commas writes 0,5 with ';' between columns
+    (and Windows line ends): refused as "time_s '0,5' is not a number". A comma between
+    digits where it cannot be a separator is a decimal comma."""
+    path = tmp_path / name
+    path.write_bytes(text.encode())
+    table = read_onsets(path)
+    np.testing.assert_allclose(table.time_s, [0.5, 0.72, 1.04])
+    if "sigma_s" in text:
+        np.testing.assert_allclose(table.sigma_s, [1e-4, 2e-4, 1e-4])
+
+
+def test_a_comma_that_may_separate_is_never_read_as_decimal(tmp_path):
+    """In a comma-separated CSV a row '0,5,0,0001' has four values, not two: refused."""
+    path = tmp_path / "ambiguous.csv"
+    path.write_text("time_s,sigma_s\n0,5,0,0001\n")
+    with pytest.raises(DrumrollError, match="line 2: expected 2 comma-separated values"):
+        read_onsets(path)
+
+
 @pytest.mark.parametrize(("text", "where", "what"), [
     ("time_s,bounce\n0.1,0\n0.2,1.5\n", "line 3", "bounce '1.5' is not a whole number"),
     ("time_s,bounce\n0.1,0\n0.2,two\n", "line 3", "bounce 'two' is not a number"),
