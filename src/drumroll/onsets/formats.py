@@ -13,11 +13,10 @@ recognised, its reader and its writer (:data:`ONSET_FORMATS`).
   added by hand) has none but the fitted jitter.
 * ``text``: one time per line, seconds; one roll numbered 0, 1, 2, …
 
-A number may be written with a decimal comma (``0,1265``), as spreadsheets in many languages
-write it, wherever a comma cannot be the separator: a CSV separated by semicolons or tabs (or
-of one column), a label track, one time per line.
-
-so that hand-made and third-party onset lists can be fitted too.
+so that hand-made and third-party onset lists can be fitted too. A number may be written with
+a decimal comma (``0,1265``), as spreadsheets in many languages write it, wherever a comma
+cannot be the separator: a CSV separated by semicolons or tabs (or of one column), a label
+track, one time per line.
 """
 
 from __future__ import annotations

@@ -8,6 +8,8 @@ for steady noise as well as for the fluctuating ring-down inside a roll.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from drumroll.onsets.dsp import maximum_filter1d, median_filter1d
@@ -114,8 +116,6 @@ def local_robust_z(odf: np.ndarray, segment: int, reach: int = 3,
 
 def _nan_median(x: np.ndarray, axis: int | None = None) -> np.ndarray:
     """``np.nanmedian``, NaN (without a warning) where a slice holds only NaN."""
-    import warnings
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return np.nanmedian(x, axis=axis)
