@@ -97,6 +97,23 @@ def test_digital_silence_before_a_real_recording_is_no_roll(lead_s):
     assert np.count_nonzero(np.abs(err - offset) < 2e-3) >= 49  # as without the silence
 
 
+@pytest.mark.parametrize("gate_db", [-60.0, -50.0])
+def test_a_noise_gate_that_zeroes_the_quiet_samples_leaves_the_roll_whole(gate_db):
+    """The real ping-pong with every sample under -60 or -50 dBFS set to zero (a crude noise
+    gate): a sound gated to zeros right after an onset met log10(0), a RuntimeWarning on the
+    user's terminal. No warning; one roll from the first impact."""
+    import warnings
+
+    x, sr = sf.read(DATA / "pingpong.wav")
+    gated = np.where(np.abs(x) < 10 ** (gate_db / 20), 0.0, x)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        table = detect(gated, sr)
+    mono = detect(x, sr)
+    assert len(table.rolls) == 1 and table.bounce[0] == 0
+    assert abs(table.time_s[0] - mono.time_s[0]) < 1e-4
+
+
 @pytest.mark.parametrize("layout", ["dead right", "dead left", "dead middle of three"])
 def test_a_dead_channel_leaves_the_onsets_those_of_the_live_one(layout):
     """The real ping-pong in a file with a channel of exact zeros beside it (a mono microphone

@@ -166,7 +166,10 @@ def margin_db(ex: Excerpt, onset: int) -> float:
     ref = power[max(at - n_ref, 0): max(at, 0)]
     if own.size == 0 or ref.size == 0:
         return 0.0
-    return float(10.0 * np.log10(own.max() / max(float(np.median(ref)), 1e-300)))
+    # Floored both ways: a sound gated to exact zeros after its onset (a noise gate) stands
+    # out by nothing, not by log(0).
+    return float(10.0 * np.log10(max(float(own.max()), 1e-300)
+                                 / max(float(np.median(ref)), 1e-300)))
 
 
 def common_margin_db(ex: Excerpt, roll: Roll) -> float | None:
