@@ -6,8 +6,8 @@ of the room, and averaging the two smears every onset over their delay. The impa
 timed on the channel that hears them first: the loudest candidates are timed on every
 channel, and the channel whose onsets come earliest (the median over the candidates of its
 lead over the others) is the one. Channels that agree to within a sample are averaged, as a
-mono recording is. A channel votes only on the impacts it hears (its own sound above what
-was there before it): a dead input or a muted side, exact zeros or hiss, would otherwise
+mono recording is. A channel votes only on the impacts it hears (its peak there within 60 dB
+of the loudest channel's): a dead input or a muted side, exact zeros or hiss, would otherwise
 place its "onset" anywhere in the search, often first, and have the roll timed on nothing.
 """
 
@@ -22,6 +22,10 @@ from drumroll.onsets.odf import OdfParams, wide_filter
 
 #: Candidates (the most significant) the channels are compared on.
 _LOUDEST = 8
+
+#: A channel whose peak at an impact is under this fraction (-60 dB) of the loudest
+#: channel's there does not hear it.
+_DEAF_BELOW = 1e-3
 
 #: Refinement windows (seconds): the stretch before an onset the whitening is fitted on,
 #: and the search either side of the first pass's time.
@@ -53,19 +57,20 @@ def earliest_channel(c: Candidates, channels: int, rate: int, odf: OdfParams,
     pre, search, post = (round(v * rate) for v in (_PRE_S, _SEARCH_S, _POST_S))
     loudest = np.argsort(-c.z)[:_LOUDEST]
     times = np.full((loudest.size, channels), np.nan)
+    level = np.zeros((loudest.size, channels))
     for i, k in enumerate(loudest):
         guess = round(c.time_s[k] * rate)
         lo, hi = guess - pre - search - settle, guess + search + post
         for ch in range(channels):
             r = refine_window(excerpt(lo, hi, ch), lo, guess, rate, wide.filter, settle,
                               pre=pre + search, post=post, search=search)
-            # A channel times only an impact it hears: one that is silent there (a dead
-            # input, a side muted in an editor: exact zeros, or its noise alone) puts its
-            # "onset" anywhere in the search, often first, and would be chosen to time the
-            # roll on nothing.
-            if r.amplitude > 0.0 and r.snr_db > 0.0:
-                times[i, ch] = r.sample
-    heard = np.isfinite(times)
+            times[i, ch], level[i, ch] = r.sample, r.amplitude
+    # A channel times only an impact it hears: one that is silent there (a dead input, a side
+    # muted in an editor: exact zeros, or hiss 60 dB and more under the channel that hears
+    # the impact) puts its "onset" anywhere in the search, often first, and would be chosen
+    # to time the roll on nothing. Two microphones of one room differ by tens of dB at most.
+    heard = (level > 0.0) & (level >= _DEAF_BELOW * level.max(axis=1, keepdims=True))
+    times = np.where(heard, times, np.nan)
     both = heard.sum(axis=1) >= 2  # a lead needs two channels hearing the same impact
     if not both.any():
         deaf = ~heard.any(axis=0)
