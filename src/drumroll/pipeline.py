@@ -69,6 +69,7 @@ from drumroll.inference.sampling import Chain, run_emcee
 from drumroll.inference.settings import EstimateSettings, estimate_settings
 from drumroll.inference.space import ParameterSpace
 from drumroll.onsets import ONSET_FILE_SUFFIXES, OnsetTable, detect, read_onsets
+from drumroll.physics import STANDARD_GRAVITY
 from drumroll.physics.models import forward_model
 from drumroll.progress import Progress, ProgressLike, as_progress
 from drumroll.quantities import BY_NAME
@@ -582,8 +583,9 @@ def estimate(source: str | os.PathLike[str] | OnsetTable, config: Config | str |
     if per_bounce > LONGEST_FLIGHT_S:
         raise DrumrollError(f"{name}: the onsets{of_roll} are {per_bounce:g} s apart per bounce "
                             f"(median), longer than any bounce's flight ({LONGEST_FLIGHT_S:g} s "
-                            "is a rebound of 120 m): are the times in seconds? (milliseconds "
-                            "must be divided by 1000)")
+                            f"is a rebound of {STANDARD_GRAVITY * LONGEST_FLIGHT_S**2 / 8:.0f} "
+                            "m): are the times in seconds? (milliseconds must be divided by "
+                            "1000)")
     say(f"{len(onsets)} onsets{of_roll}, from {onsets.time_s[0]:.4f} s to "
         f"{onsets.time_s[-1]:.4f} s")
     recording = None if isinstance(source, OnsetTable) else Path(source)

@@ -24,6 +24,10 @@ from drumroll.onsets.odf import OdfParams, wide_filter
 #: Candidates (the most significant) the channels are compared on.
 _LOUDEST = 8
 
+#: Share of the loudest candidates a channel must hear to take part (a dead or hissing
+#: channel heard none of them in every case tried; a live one at least a quarter).
+_LIVE_SHARE = 0.25
+
 #: Refinement windows (seconds): the stretch before an onset the whitening is fitted on,
 #: and the search either side of the first pass's time.
 _PRE_S, _SEARCH_S, _POST_S = 0.008, 0.002, 0.002
@@ -69,7 +73,7 @@ def earliest_channel(c: Candidates, channels: int, rate: int, odf: OdfParams,
     # in each search, often first, and have the roll timed on nothing. A live channel does
     # not hear every one stand out: in a reverberant hall, through AGC and AAC at 64 kb/s,
     # the far microphone of the corpus's stereo roll heard fewer than half.
-    live = np.flatnonzero(heard.mean(axis=0) >= 0.25)
+    live = np.flatnonzero(heard.mean(axis=0) >= _LIVE_SHARE)
     if live.size < 2:
         return int(live[0]) if live.size == 1 else None
     times = times[:, live]
