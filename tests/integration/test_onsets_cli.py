@@ -129,3 +129,25 @@ def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys, kind):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("drumroll: error:")
     assert "Traceback" not in err[0]
+
+
+def test_an_onset_file_given_as_the_recording_is_named_as_one(roll_flac, tmp_path, capsys):
+    """``drumroll onsets onsets.csv`` called a healthy onset file "not a readable audio file,
+    or its header is damaged"; it says what the file is and what fits it, and writes
+    nothing. A file with an onset file's suffix that is no onset file either keeps the
+    audio reader's word."""
+    path, _ = roll_flac
+    csv = tmp_path / "o.csv"
+    assert main(["onsets", str(path), "-o", str(csv), "-q"]) == 0
+    count = len(read_onsets(csv).time_s)
+    capsys.readouterr()
+    out = tmp_path / "again.csv"
+    assert main(["onsets", str(csv), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"an onset file ({count} onsets), not a recording" in err[0]
+    assert f"drumroll estimate {csv} --prior CONFIG" in err[0]
+    assert not out.exists()
+    junk = tmp_path / "junk.txt"
+    junk.write_text("hello there\n")
+    assert main(["onsets", str(junk)]) == 2
+    assert "not a readable audio file" in capsys.readouterr().err

@@ -64,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
                                 "estimate reads it back as onsets")
     if args.plot:
         fileio.check_figure_suffix(args.plot)
+    _refuse_onset_file(args.audio)
     options = {} if args.highpass is None else {"highpass_hz": args.highpass}
     # The stream travels with the path, so that the figure reads the same stream.
     audio = args.audio if args.stream is None else AudioSource(args.audio, args.stream)
@@ -94,3 +95,20 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         progress.say(f"drumroll: {table.describe()} written to {args.output}")
     return 0
+
+
+def _refuse_onset_file(source: str) -> None:
+    """Refuse an onset file given where a recording is wanted, saying what to run instead
+    (audio's own error would call the file unreadable or damaged, which it is not)."""
+    from drumroll.onsets.formats import read_onsets
+
+    path = Path(source)
+    if path.suffix.lower() not in ONSET_FILE_SUFFIXES or not path.is_file():
+        return
+    try:
+        table = read_onsets(path)
+    except DrumrollError:
+        return  # not an onset file either: the audio reader says what it is
+    raise DrumrollError(f"{source}: an onset file ({len(table.time_s)} onsets), not a "
+                        "recording: `drumroll onsets` finds onsets in audio; "
+                        f"`drumroll estimate {source} --prior CONFIG` fits these")

@@ -11,6 +11,9 @@ recognised, its reader and its writer (:data:`ONSET_FORMATS`).
   onset's timing error ``sigma_s``, so that onsets edited in Audacity keep their weights in
   the fit (a faint onset's error is several times a loud one's); a label without it (one
   added by hand) has none but the fitted jitter.
+* ``instants``: a time-instants layer as Sonic Visualiser exports it, ``time,label`` with
+  no header (also a ``.csv``: told from ours by its first line); the labels are read as the
+  label track's are.
 * ``text``: one time per line, seconds; one roll numbered 0, 1, 2, …
 
 so that hand-made and third-party onset lists can be fitted too. A number may be written with
@@ -52,7 +55,7 @@ class OnsetFormat:
     Attributes
     ----------
     name
-        Its name (``csv``, ``labels``, ``text``).
+        Its name (``csv``, ``labels``, ``instants``, ``text``).
     description
         What it is, in a few words.
     suffixes
@@ -204,6 +207,14 @@ def _read_labels(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
         _number(path, n, parts[1], "end time")
         names.append(parts[2].strip() if len(parts) > 2 else "")
         line_numbers.append(n)
+    return _labelled(path, line_numbers, times, names)
+
+
+def _labelled(path: Path, line_numbers: list[int], times: list[float], names: list[str]
+              ) -> OnsetTable:
+    """The table of ``times`` whose labels are ``names``: labels ``[roll m] hit n[, sd x ms]``
+    (every one of them) carry the numbers and timing errors; others are numbered in time
+    order."""
     matches = [_LABEL.match(name) for name in names]
     columns: dict[str, np.ndarray] = {}
     if matches and all(matches):  # every label carries its numbers: keep them
@@ -215,6 +226,34 @@ def _read_labels(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
         columns["roll"] = np.array([int(m.group(1) or 1) - 1 for m in matches], np.int64)
         columns["sigma_s"] = np.array([1e-3 * float(m.group(3) or 0.0) for m in matches])
     return _numbered(path, line_numbers, times, columns)
+
+
+def _is_instants(first: str) -> bool:
+    """Whether a first line is a time instant as Sonic Visualiser exports them (``time,label``,
+    no header): a number, then a comma that cannot be its decimal comma."""
+    if "," not in first or _DECIMAL_COMMA.match(first):
+        return False
+    try:
+        float(first.split(",", 1)[0])
+    except ValueError:
+        return False
+    return True
+
+
+def _read_instants(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
+    times, names = [], []
+    for n, ln in lines:
+        time, _, label = ln.partition(",")
+        times.append(_number(path, n, time, "time"))
+        names.append(label.strip().strip('"'))
+    return _labelled(path, [n for n, _ in lines], times, names)
+
+
+def _instants_text(table: OnsetTable) -> str:
+    """The onsets as Sonic Visualiser's time-instants CSV, labelled as
+    :meth:`~drumroll.onsets.table.OnsetTable.to_labels` labels them."""
+    labels = [ln.split("\t", 2)[2] for ln in table.to_labels().splitlines()]
+    return "".join(f"{t:.9f},{label}\n" for t, label in zip(table.time_s, labels, strict=True))
 
 
 def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
@@ -234,6 +273,8 @@ ONSET_FORMATS: dict[str, OnsetFormat] = {f.name: f for f in (
                 _read_csv, OnsetTable.to_csv),
     OnsetFormat("labels", "Audacity label track", (".tsv", ".lab", ".labels"),
                 lambda first: "\t" in first, _read_labels, OnsetTable.to_labels),
+    OnsetFormat("instants", "Sonic Visualiser time instants (time,label; no header)", (),
+                _is_instants, _read_instants, _instants_text),
     OnsetFormat("text", "one time per line", (".txt",), lambda first: True, _read_plain,
                 OnsetTable.to_text),
 )}

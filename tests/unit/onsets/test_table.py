@@ -223,7 +223,8 @@ def test_every_onset_format_reads_back_what_it_writes(fmt, tmp_path):
     times = np.array([0.5, 0.72, 0.88, 1.0])
     table = two_rolls() if carries_numbers else OnsetTable(times, np.ones(4), np.ones(4),
                                                            np.zeros(4))
-    for suffix in fmt.suffixes:
+    # A format with no suffix of its own (Sonic Visualiser's instants) is exported as .csv.
+    for suffix in fmt.suffixes or (".csv",):
         assert suffix in ONSET_FILE_SUFFIXES
         path = tmp_path / f"onsets{suffix}"
         path.write_text(fmt.write(table))
@@ -233,3 +234,29 @@ def test_every_onset_format_reads_back_what_it_writes(fmt, tmp_path):
         np.testing.assert_array_equal(again.roll, table.roll)
         first = next(line for line in path.read_text().splitlines() if line)
         assert next(f.name for f in ONSET_FORMATS.values() if f.recognises(first)) == fmt.name
+
+
+def test_sonic_visualisers_time_instants_are_read(tmp_path):
+    """Sonic Visualiser exports a time-instants layer as ``time,label`` lines without a header
+    (a .csv): refused as "time '0.5,New Point' is not a number". The first field is the time;
+    labels ``hit n`` carry the numbers as Audacity's do, others leave them to time order;
+    written back, the numbers and timing errors survive."""
+    path = tmp_path / "instants.csv"
+    path.write_text("0.500000000,New Point\n0.720000000,New Point\n0.910000000,\n")
+    table = read_onsets(path)
+    np.testing.assert_allclose(table.time_s, [0.5, 0.72, 0.91])
+    np.testing.assert_array_equal(table.bounce, [0, 1, 2])
+    path.write_text('0.5,"hit 1"\n0.72,hit 2\n0.91,hit 4, sd 0.2 ms\n')
+    table = read_onsets(path)
+    np.testing.assert_array_equal(table.bounce, [0, 1, 3])
+    np.testing.assert_allclose(table.sigma_s, [0.0, 0.0, 2e-4])
+    rolls = two_rolls()
+    path.write_text(ONSET_FORMATS["instants"].write(rolls))
+    back = read_onsets(path)
+    np.testing.assert_allclose(back.time_s, rolls.time_s, atol=1e-9)
+    np.testing.assert_array_equal(back.bounce, rolls.bounce)
+    np.testing.assert_array_equal(back.roll, rolls.roll)
+    np.testing.assert_allclose(back.sigma_s, rolls.sigma_s, atol=1e-10)
+    # a decimal comma alone on a line is still one time, not a time and a label
+    path.write_text("0,5\n0,72\n")
+    np.testing.assert_allclose(read_onsets(path).time_s, [0.5, 0.72])
