@@ -27,13 +27,14 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from drumroll.errors import DrumrollError
+from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.onsets.table import (
     NUMBER_COLUMNS,
     OnsetTable,
@@ -151,6 +152,12 @@ def _numbered(path: Path, line_numbers: list[int], times: list[float], columns: 
     """The table of ``times`` with the numbering columns given (``bounce``, ``roll`` or
     neither), after checking the numbers against each other; an error names the line."""
     times_a = np.asarray(times, float)
+    back = np.flatnonzero(np.diff(times_a) < 0)
+    if back.size:  # read in time order all the same, but a user should know
+        warnings.warn(f"{path}: line {line_numbers[back[0] + 1]}: onset "
+                      f"{times_a[back[0] + 1]:g} s comes before the line above it "
+                      f"({times_a[back[0]]:g} s); the onsets are read in time order",
+                      DrumrollWarning, stacklevel=4)
     bounce, roll = columns.get("bounce"), columns.get("roll")
     if bounce is not None or roll is not None:
         order = np.argsort(times_a, kind="stable")

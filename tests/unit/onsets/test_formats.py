@@ -11,13 +11,14 @@ tests/conftest.py: derandomize).
 from __future__ import annotations
 
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from drumroll.errors import DrumrollError
+from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.onsets import COLUMNS, OnsetTable, read_onsets
 from drumroll.pipeline import choose_roll
 
@@ -141,13 +142,18 @@ def read_and_choose(content: str | bytes, suffix: str) -> OnsetTable | None:
         else:
             path.write_text(content, encoding="utf-8", errors="surrogatepass")
         try:
-            table = read_onsets(path)
-            choose_roll(table, None, str(path))
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always", DrumrollWarning)
+                table = read_onsets(path)
+                choose_roll(table, None, str(path))
         except DrumrollError as exc:
             event("refused in one line")
             message = str(exc)
             assert message and "\n" not in message.strip(), message
             return None
+        for warning in said:  # what is read with a remark is remarked on in a line too
+            event("read with a warning")
+            assert "\n" not in str(warning.message).strip(), warning.message
     event("read")  # --hypothesis-show-statistics gives the shares
     return table
 

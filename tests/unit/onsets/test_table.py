@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
-from drumroll.errors import DrumrollError
+from drumroll.errors import DrumrollError, DrumrollWarning
 from drumroll.onsets import COLUMNS, ONSET_FILE_SUFFIXES, ONSET_FORMATS, OnsetTable, read_onsets
 
 OLD_HEADER = "time_s,amplitude,snr_db,sigma_s,interval_s"
@@ -96,7 +98,8 @@ def test_old_csv_without_numbers_still_reads(tmp_path):
     path = tmp_path / "old.csv"
     path.write_text(OLD_HEADER + "\n0.91,0.1,20,1e-05,0.19\n0.5,0.3,30,1e-05,nan\n"
                     "0.72,0.2,25,2e-05,0.22\n")
-    table = read_onsets(path)
+    with pytest.warns(DrumrollWarning, match="line 3: onset 0.5 s comes before"):
+        table = read_onsets(path)
     np.testing.assert_allclose(table.time_s, [0.5, 0.72, 0.91])
     np.testing.assert_array_equal(table.bounce, [0, 1, 2])
     np.testing.assert_array_equal(table.roll, [0, 0, 0])
@@ -156,7 +159,7 @@ def test_a_comma_that_may_separate_is_never_read_as_decimal(tmp_path):
     ("time_s,bounce\n0.1,0\n0.2,-1\n", "line 3", "bounce -1 is negative"),
     ("time_s,bounce\n0.1,1\n0.2,0\n", "line 3",
      "bounce 0 after bounce 1 of roll 0: bounce numbers must increase with time within a roll"),
-    ("time_s,bounce\n0.2,3\n0.1,0\n0.3,3\n", "line 4", "bounce 3 after bounce 3"),
+    ("time_s,bounce\n0.1,0\n0.2,3\n0.3,3\n", "line 4", "bounce 3 after bounce 3"),
     ("time_s,bounce,roll\n0.1,0,1\n0.2,1,0\n", "line 3",
      "roll 0 after roll 1: rolls are numbered in time order"),
     ("time_s,roll\n0.1,0\n0.2,0.5\n", "line 3", "roll '0.5' is not a whole number"),
@@ -260,3 +263,19 @@ def test_sonic_visualisers_time_instants_are_read(tmp_path):
     # a decimal comma alone on a line is still one time, not a time and a label
     path.write_text("0,5\n0,72\n")
     np.testing.assert_allclose(read_onsets(path).time_s, [0.5, 0.72])
+
+
+def test_onsets_out_of_time_order_are_read_sorted_with_a_warning(tmp_path):
+    """A hand-made list with a line out of order (two lists pasted together, a typo) was
+    sorted without a word; it is still read in time order, and the first line that goes
+    back in time is named."""
+    path = tmp_path / "hand.txt"
+    path.write_text("0.30\n0.10\n0.48\n0.65\n")
+    with pytest.warns(DrumrollWarning, match=r"hand.txt: line 2: onset 0.1 s comes before "
+                      r"the line above it \(0.3 s\)"):
+        table = read_onsets(path)
+    np.testing.assert_allclose(table.time_s, [0.1, 0.3, 0.48, 0.65])
+    path.write_text("0.10\n0.30\n0.48\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_onsets(path)
