@@ -8,6 +8,7 @@ file descriptor 2 itself.
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
@@ -103,6 +104,12 @@ def test_a_truncated_mp3_is_said_once_in_words(tmp_path, mp3):
     assert lines[0].startswith(f"drumroll: warning: {cut}: the file is cut short: its header "
                                f"declares {declared:.2f} s of audio")
     assert all(line.startswith("drumroll: ") for line in lines)
+    # The bit rate is what the half holds over the half's length (it was over the whole
+    # roll's, half the whole file's: 39 kb/s against 77, and the timing floor of that rate).
+    whole = stderr_lines(drumroll("onsets", mp3))
+    rate = {name: float(re.search(r"MP3 at (\d+) kb/s", " ".join(said)).group(1))
+            for name, said in (("whole", whole), ("half", lines))}
+    assert abs(rate["half"] - rate["whole"]) < 0.2 * rate["whole"], rate
 
 
 def test_damaged_mp3_frames_are_one_warning(tmp_path, mp3):

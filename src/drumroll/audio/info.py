@@ -3,7 +3,7 @@ one, so it lives below both."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 
@@ -61,3 +61,14 @@ class AudioInfo:
     def duration_s(self) -> float:
         """Length in seconds."""
         return self.frames / self.sample_rate
+
+    def holding(self, frames: int) -> AudioInfo:
+        """This file as it turned out to hold ``frames`` samples per channel: fewer than its
+        header declares when it was cut short, and then the bit rate taken from its size
+        (what was stored) is over the audio it holds, not over the length its header
+        declares (which would put an MP3 of 128 kb/s cut to two thirds at 85)."""
+        if not 0 < frames < self.frames:
+            return self
+        bit_rate = (None if self.bit_rate is None
+                    else round(self.bit_rate * self.frames / frames))
+        return replace(self, frames=frames, bit_rate=bit_rate)

@@ -237,6 +237,8 @@ def detect(source: str | os.PathLike[str] | np.ndarray, sr: int | None = None, *
     for block in blocks:
         stream.feed(block)
     cands = stream.finish()
+    if info is not None:  # a file cut short holds less than its header said
+        info = info.holding(stream.total)
     if len(cands) == 0 and n_channels > 1 and _channels_cancel(excerpt, n_channels,
                                                                stream.total, rate):
         raise AudioError(f"no drumroll found in {name}: its channels cancel when mixed to "
