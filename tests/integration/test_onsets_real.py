@@ -79,6 +79,42 @@ def test_the_real_ping_pong_is_found_from_its_first_impact():
     assert len(table) > truth.size  # and on into the bounces too faint to reference
 
 
+#: Where a mains buzz hides the real ping-pong's first impact (2026-12-08). The click at
+#: 0.1265 s is the first candidate's sound, but its detection function peaks 3.5 ms ahead of
+#: it (the faint sound before the first impact, and the buzz's corners, lower the function at
+#: the click itself), so its change point is looked for before the click and found on that
+#: faint sound; the buzz puts it 1 ms further off than in the clean recording, where the
+#: tracker keeps it (the flight law's stage then moves it onto the click), and here the
+#: tracker drops it as "before the roll". Tried and not landed: looking for the click where
+#: the detection function stays within a tenth of its peak, past an impact's rise time,
+#: finds the first impact in all six buzz cases, but moves the clean recording's first
+#: change point onto its faint lead-in and, through the flight law's stage and the loudest
+#: impact's envelope, every onset with it (the ping-pong's MAD against its reference
+#: 0.160 ms to 0.220).
+BUZZ_HIDES_THE_FIRST = pytest.mark.xfail(
+    strict=True, reason="the first candidate's change point is looked for ahead of the click "
+    "(BUZZ_HIDES_THE_FIRST's comment)")
+
+
+@pytest.mark.parametrize(("hz", "level"), [
+    pytest.param(50, 0.01, marks=BUZZ_HIDES_THE_FIRST), (50, 0.05), (50, 0.2), (60, 0.01),
+    (60, 0.05), pytest.param(60, 0.2, marks=BUZZ_HIDES_THE_FIRST)])
+def test_mains_buzz_under_the_real_ping_pong_leaves_its_first_impact(hz, level):
+    """A ground loop's buzz (the mains sine clipped to a near-square wave: odd harmonics far
+    above the high-pass) at ``level`` times the recording's peak, 1 % being 40 dB under the
+    loudest impact: the roll still starts at its first impact and every bounce is numbered
+    right."""
+    truth = np.asarray(json.loads((DATA / "pingpong.truth.json").read_text())["onset_times_s"])
+    x, rate = sf.read(DATA / "pingpong.wav")
+    t = np.arange(x.size) / rate
+    buzz = level * np.abs(x).max() * np.clip(3.0 * np.sin(2.0 * np.pi * hz * t), -1.0, 1.0)
+    table = detect(x + buzz, rate)
+    assert abs(table.time_s[0] - truth[0]) < 2e-3 and table.bounce[0] == 0
+    ref = table.time_s <= truth[-1] + 0.002
+    nearest = [int(np.argmin(np.abs(truth - v))) for v in table.time_s[ref]]
+    np.testing.assert_array_equal(table.bounce[ref], nearest)
+
+
 @pytest.mark.parametrize("lead_s", [0.05, 0.1, 0.2])
 def test_digital_silence_before_a_real_recording_is_no_roll(lead_s):
     """The real ping-pong after a stretch of exact zeros, as a recorder that pads its start
