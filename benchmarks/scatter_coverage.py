@@ -18,7 +18,8 @@ any number): a fit whose bars are too narrow should say so.
 integrated out by Laplace's method).
 
 Usage: ``python benchmarks/scatter_coverage.py [--rolls 100] [--scatter 0.005]
-[--exponent 0.2] [--contact-ms 1] [--noise student-t] [--seed 1000] [--workers 2]`` (about
+[--exponent 0.2] [--contact-ms 1] [--noise student-t] [--seed 1000] [--workers 2]
+[--fits scatter,speed]`` (about
 5 s per roll and fit on one core under Gaussian noise, 20-30 s under Student-t).
 """
 
@@ -41,7 +42,7 @@ PRIORS = {"alpha": {"dist": "uniform", "low": 0.5, "high": 1.0},
 SCATTER_PRIOR = {"dist": "halfnormal", "sigma": 0.02}
 
 
-def configs(exponent: float, noise: str = "gaussian") -> dict:
+def configs(exponent: float, noise: str = "gaussian", only: tuple[str, ...] = ()) -> dict:
     """The constant-α and the scattering fit, and the speed law's where the truth has it.
     Every fit samples the contact time, as ``estimate`` does by default (``contact_ms`` ~
     U(0, 3 ms)), whatever the truth's."""
@@ -52,7 +53,7 @@ def configs(exponent: float, noise: str = "gaussian") -> dict:
             "scatter": parse_config({**base, "priors": scatter})}
     if exponent:
         fits["speed"] = parse_config({**base, "model": "powerlaw/speed", "priors": scatter})
-    return fits
+    return {name: fit for name, fit in fits.items() if not only or name in only}
 
 
 def roll(rng: np.random.Generator, scatter: float, exponent: float = 0.0,
@@ -78,7 +79,7 @@ def fit_roll(i: int, args: argparse.Namespace) -> tuple[float, float, dict]:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "roll.csv"
         path.write_text("time_s\n" + "".join(f"{t:.9f}\n" for t in times))
-        for name, config in configs(args.exponent, args.noise).items():
+        for name, config in configs(args.exponent, args.noise, args.fits).items():
             summary = drumroll.estimate(path, config).summary
             parameters = summary.parameters
             out[name] = ([(parameters[q].mean, parameters[q].sd, parameters[q].hdi_low,
@@ -96,8 +97,11 @@ def main() -> None:
     ap.add_argument("--noise", choices=("gaussian", "student-t"), default="gaussian")
     ap.add_argument("--seed", type=int, default=1000)
     ap.add_argument("--workers", type=int, default=1, help="rolls fitted side by side")
+    ap.add_argument("--fits", type=lambda text: tuple(text.split(",")), default=(),
+                    help="only these fits, comma-separated (constant, scatter, speed; "
+                    "default all)")
     args = ap.parse_args()
-    fits = configs(args.exponent, args.noise)
+    fits = configs(args.exponent, args.noise, args.fits)
     found = {(f, q): [] for f in fits for q in ("alpha", "t_b")}
     truths = {"alpha": [], "t_b": []}
     flagged: dict[str, list[bool]] = {f: [] for f in fits}

@@ -489,6 +489,11 @@ def run_emcee(log_posterior: LogPosterior, settings: SamplerSettings,
     target, mode, start = _start(log_posterior, settings)
     coordinates = target.coordinates
     walkers, ndim = start.shape
+    # The walk itself, past the start's climb, in |z| for the scatter (SamplerCoordinates).
+    folded = replace(coordinates, fold_scatter=True)
+    if folded.folded_columns:
+        start = folded.to_sampler(coordinates.to_parameters(start)[0])
+        coordinates, target = folded, SamplerTarget(log_posterior, folded)
     from drumroll.inference.ensemble import emcee  # emcee without scipy.stats
 
     if not emcee.ensemble.walkers_independent(start):  # emcee's own test, run_mcmc's first

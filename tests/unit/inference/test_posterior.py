@@ -174,11 +174,18 @@ def _numerical_log_det(coords, zr: np.ndarray) -> float:
     return float(np.log(abs(np.linalg.det(jac))))
 
 
+@pytest.mark.parametrize("fold", [False, True], ids=["log-scatter", "folded-scatter"])
 @pytest.mark.parametrize(("model", "variant"), COORDINATE_CASES)
-def test_sampler_coordinates_round_trip_and_jacobian(model, variant):
-    """z → x inverts x → z on valid points, and log|det| matches a finite-difference Jacobian."""
+def test_sampler_coordinates_round_trip_and_jacobian(model, variant, fold):
+    """z → x inverts x → z on valid points, and log|det| matches a finite-difference Jacobian
+    (the scatter through its logarithm, or as the absolute value of its column, as the
+    ensemble walks it)."""
     lp = LogPosterior.build(_config(variant), model, _data(False))
-    coords = SamplerCoordinates(lp.space)
+    coords = SamplerCoordinates(lp.space, fold_scatter=fold)
+    if fold and variant == "scatter":
+        assert coords.folded_columns == (lp.space.names.index("restitution_scatter"),)
+    else:
+        assert coords.folded_columns == ()
     x = lp.space.sample_prior(np.random.default_rng(7), 400)
     x = x[np.isfinite(lp(x))][:60]
     assert len(x) >= 20
@@ -187,6 +194,29 @@ def test_sampler_coordinates_round_trip_and_jacobian(model, variant):
     np.testing.assert_allclose(back, x, rtol=1e-11, atol=0)
     for row, zr in enumerate(z[:20]):
         np.testing.assert_allclose(log_det[row], _numerical_log_det(coords, zr), atol=1e-6)
+
+
+def test_a_folded_scatter_column_is_its_absolute_value():
+    """With ``fold_scatter`` the scatter's column maps to |z|, both signs alike, with unit
+    Jacobian, in the batch and the one-point maps; every other column is as without it."""
+    lp = LogPosterior.build(_config("scatter"), "pendulum", _data(False))
+    plain, folded = SamplerCoordinates(lp.space), SamplerCoordinates(lp.space, fold_scatter=True)
+    j = lp.space.names.index("restitution_scatter")
+    x = lp.space.sample_prior(np.random.default_rng(5), 200)
+    x = x[np.isfinite(lp(x))][:10]
+    z = folded.to_sampler(x)
+    np.testing.assert_allclose(z[:, j], x[:, j])
+    mirrored = z.copy()
+    mirrored[:, j] = -z[:, j]
+    for zz in (z, mirrored):
+        back, log_det = folded.to_parameters(zz)
+        np.testing.assert_allclose(back, x, rtol=1e-11)
+        np.testing.assert_allclose(log_det, plain.to_parameters(plain.to_sampler(x))[1]
+                                   - np.log(x[:, j]), rtol=1e-11)
+        for row in range(len(zz)):
+            one = folded.to_parameters_one(zz[row])
+            np.testing.assert_allclose(one[0], back[row], rtol=1e-12)
+            assert one[1] == pytest.approx(log_det[row], abs=1e-9)
 
 
 def _atom_geometry(lp: LogPosterior, coords: SamplerCoordinates, rng: np.random.Generator
