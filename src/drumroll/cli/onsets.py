@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+import warnings
 from pathlib import Path
 
 from drumroll import fileio
 from drumroll.cli.arguments import non_negative_int, positive_float
 from drumroll.cli.progress import Progress
-from drumroll.errors import DrumrollError
-from drumroll.onsets.formats import ONSET_FILE_SUFFIXES
+from drumroll.errors import DrumrollError, DrumrollWarning
+from drumroll.onsets.formats import ONSET_FILE_SUFFIXES, read_onsets
 from drumroll.onsets.table import COLUMNS
 
 
@@ -100,13 +101,13 @@ def run(args: argparse.Namespace) -> int:
 def _refuse_onset_file(source: str) -> None:
     """Refuse an onset file given where a recording is wanted, saying what to run instead
     (audio's own error would call the file unreadable or damaged, which it is not)."""
-    from drumroll.onsets.formats import read_onsets
-
     path = Path(source)
     if path.suffix.lower() not in ONSET_FILE_SUFFIXES or not path.is_file():
         return
     try:
-        table = read_onsets(path)
+        with warnings.catch_warnings():  # only asking what it is: its remarks are not ours
+            warnings.simplefilter("ignore", DrumrollWarning)
+            table = read_onsets(path)
     except DrumrollError:
         return  # not an onset file either: the audio reader says what it is
     raise DrumrollError(f"{source}: an onset file ({len(table.time_s)} onsets), not a "

@@ -257,10 +257,10 @@ def _read_instants(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
 
 
 def _instants_text(table: OnsetTable) -> str:
-    """The onsets as Sonic Visualiser's time-instants CSV, labelled as
-    :meth:`~drumroll.onsets.table.OnsetTable.to_labels` labels them."""
-    labels = [ln.split("\t", 2)[2] for ln in table.to_labels().splitlines()]
-    return "".join(f"{t:.9f},{label}\n" for t, label in zip(table.time_s, labels, strict=True))
+    """The onsets as Sonic Visualiser's time-instants CSV, labelled as the label track is
+    (:meth:`~drumroll.onsets.table.OnsetTable.label_names`)."""
+    return "".join(f"{t:.9f},{label}\n"
+                   for t, label in zip(table.time_s, table.label_names(), strict=True))
 
 
 def _read_plain(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:

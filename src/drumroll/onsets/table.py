@@ -236,20 +236,23 @@ class OnsetTable:
                 out.write(f"# rejected,{_fmt(t)},{_fmt(s)},{why}\n")
         return out.getvalue()
 
-    def to_labels(self) -> str:
-        """The onsets as an Audacity label track: point labels ``hit n`` for bounce n − 1
-        (``hit 1``, ``hit 2``, … when no bounce is missing), prefixed ``roll m`` for roll
-        m − 1 when the table holds any roll but roll 0, and followed by ``, sd x ms``, the
-        onset's timing error, where it has one (read back as ``sigma_s``)."""
+    def label_names(self) -> list[str]:
+        """Each onset's label: ``hit n`` for bounce n − 1 (``hit 1``, ``hit 2``, … when no
+        bounce is missing), prefixed ``roll m`` for roll m − 1 when the table holds any roll
+        but roll 0, and followed by ``, sd x ms``, the onset's timing error, where it has one
+        (read back as ``sigma_s``)."""
         prefix = bool(np.any(self.roll != 0))
 
         def error(sigma: float) -> str:
             return f", sd {1e3 * sigma:.4f} ms" if np.isfinite(sigma) and sigma > 0 else ""
 
-        return "".join(f"{t:.6f}\t{t:.6f}\t{f'roll {r + 1} ' if prefix else ''}hit {k + 1}"
-                       f"{error(s)}\n"
-                       for t, k, r, s in zip(self.time_s, self.bounce, self.roll, self.sigma_s,
-                                             strict=True))
+        return [f"{f'roll {r + 1} ' if prefix else ''}hit {k + 1}{error(s)}"
+                for k, r, s in zip(self.bounce, self.roll, self.sigma_s, strict=True)]
+
+    def to_labels(self) -> str:
+        """The onsets as an Audacity label track of point labels (:meth:`label_names`)."""
+        return "".join(f"{t:.6f}\t{t:.6f}\t{name}\n"
+                       for t, name in zip(self.time_s, self.label_names(), strict=True))
 
     def to_text(self) -> str:
         """One time per line, seconds (no bounce or roll numbers: one roll, no gaps)."""
