@@ -235,9 +235,17 @@ def _labelled(path: Path, line_numbers: list[int], times: list[float], names: li
     return _numbered(path, line_numbers, times, columns)
 
 
+#: The header row Sonic Visualiser writes above a time-instants layer when its export dialog's
+#: "include a header row" is ticked.
+_INSTANTS_HEADER = re.compile(r"^\s*time\s*,\s*label\s*$", re.IGNORECASE)
+
+
 def _is_instants(first: str) -> bool:
-    """Whether a first line is a time instant as Sonic Visualiser exports them (``time,label``,
-    no header): a number, then a comma that cannot be its decimal comma."""
+    """Whether a first line is a time instant as Sonic Visualiser exports them (``time,label``):
+    its header row (:data:`_INSTANTS_HEADER`), or a number, then a comma that cannot be its
+    decimal comma."""
+    if _INSTANTS_HEADER.match(first):
+        return True
     if "," not in first or _DECIMAL_COMMA.match(first):
         return False
     try:
@@ -248,6 +256,10 @@ def _is_instants(first: str) -> bool:
 
 
 def _read_instants(path: Path, lines: list[tuple[int, str]]) -> OnsetTable:
+    if _INSTANTS_HEADER.match(lines[0][1]):
+        lines = lines[1:]
+        if not lines:
+            raise DrumrollError(f"{path}: holds no onsets (a header row only)")
     times, names = [], []
     for n, ln in lines:
         time, _, label = ln.partition(",")
@@ -280,7 +292,8 @@ ONSET_FORMATS: dict[str, OnsetFormat] = {f.name: f for f in (
                 _read_csv, OnsetTable.to_csv),
     OnsetFormat("labels", "Audacity label track", (".tsv", ".lab", ".labels"),
                 lambda first: "\t" in first, _read_labels, OnsetTable.to_labels),
-    OnsetFormat("instants", "Sonic Visualiser time instants (time,label; no header)", (),
+    OnsetFormat("instants", "Sonic Visualiser time instants (time,label; header row or none)",
+                (),
                 _is_instants, _read_instants, _instants_text),
     OnsetFormat("text", "one time per line", (".txt",), lambda first: True, _read_plain,
                 OnsetTable.to_text),

@@ -240,8 +240,9 @@ def test_every_onset_format_reads_back_what_it_writes(fmt, tmp_path):
 
 
 def test_sonic_visualisers_time_instants_are_read(tmp_path):
-    """Sonic Visualiser exports a time-instants layer as ``time,label`` lines without a header
-    (a .csv): refused as "time '0.5,New Point' is not a number". The first field is the time;
+    """Sonic Visualiser exports a time-instants layer as ``time,label`` lines, with a header
+    row ``TIME,LABEL`` or without (a .csv): refused as "time '0.5,New Point' is not a
+    number". The first field is the time;
     labels ``hit n`` carry the numbers as Audacity's do, others leave them to time order;
     written back, the numbers and timing errors survive."""
     path = tmp_path / "instants.csv"
@@ -263,6 +264,15 @@ def test_sonic_visualisers_time_instants_are_read(tmp_path):
     # a decimal comma alone on a line is still one time, not a time and a label
     path.write_text("0,5\n0,72\n")
     np.testing.assert_allclose(read_onsets(path).time_s, [0.5, 0.72])
+    # the export dialog's header row ("include a header row"), in either case
+    for header in ("TIME,LABEL", "time,label"):
+        path.write_text(f"{header}\n0.5,hit 1\n0.72,hit 2\n0.91,New Point\n")
+        table = read_onsets(path)
+        np.testing.assert_allclose(table.time_s, [0.5, 0.72, 0.91])
+        np.testing.assert_array_equal(table.bounce, [0, 1, 2])
+    path.write_text("TIME,LABEL\n")
+    with pytest.raises(DrumrollError, match="holds no onsets"):
+        read_onsets(path)
 
 
 def test_onsets_out_of_time_order_are_read_sorted_with_a_warning(tmp_path):
