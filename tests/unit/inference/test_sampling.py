@@ -266,6 +266,39 @@ def test_walkers_start_inside_the_posterior_however_wide_the_prior():
     assert np.all(np.std(ball, axis=0) > 0)  # still a ball: the moves need a spread
 
 
+def test_walkers_start_at_the_posteriors_width():
+    """The walkers drawn from the Laplace Gaussian at the highest point (laplace_ball) start
+    spread as the posterior is, where the ball of 1e-4 of the priors' spread they replace
+    took 100 steps and more of burn-in to grow: each column's sd between half and three times
+    that of a long run of emcee's own stretch move on the same target (wider where the roll's
+    contact time, mostly absent, piles against its slab's end and the Gaussian does not: an
+    over-dispersed start, which the density pulls in), every column but the contact's own (an
+    atom, no Gaussian's); every walker inside the typical set."""
+    from scipy.stats import chi2
+
+    from drumroll.inference.coordinates import SamplerCoordinates
+    from drumroll.inference.sampling import SamplerTarget, find_start, laplace_ball
+
+    rng = np.random.default_rng(4)
+    impacts = np.r_[0.0, np.cumsum(0.31 * 0.87 ** np.arange(1, 20))]
+    data = OnsetData.from_arrays(0.5 + impacts + rng.normal(0, 3e-4, 20))
+    lp = LogPosterior.build(parse_config(POWERLAW), "powerlaw", data)
+    coordinates = SamplerCoordinates(lp.space, lp.data)
+    target = SamplerTarget(lp, coordinates)
+    top = find_start(target, rng)
+    ball = laplace_ball(target, top, 64, rng)
+    assert ball is not None
+    below = target(top[None])[0] - target(ball)
+    assert np.all(below <= 0.5 * chi2.ppf(0.999, top.size) + 1e-9)
+    reference = emcee.EnsembleSampler(64, top.size, target, vectorize=True)
+    reference.random_state = np.random.RandomState(5).get_state()
+    reference.run_mcmc(ball, 4000, progress=False)
+    chain = reference.get_chain(discard=1000).reshape(-1, top.size)
+    kept = [i for i in range(top.size) if i not in coordinates.atom_columns]
+    ratio = np.std(ball, axis=0)[kept] / np.std(chain, axis=0)[kept]
+    assert np.all((ratio > 0.5) & (ratio < 3.0)), ratio
+
+
 def test_start_search_reaches_the_top_when_the_posterior_leans_on_a_prior_edge():
     """The ping-pong roll's power law: on the way up, the climbs cross regions where the
     contact time sits at 0 or the jitter at its prior's 10 ms, edges on which an unbounded
