@@ -116,8 +116,8 @@ def initial_ball(log_posterior: LogPosterior, centre: NDArray, walkers: int,
     prior is not much wider than the posterior: with t_B ~ U(0.01, 20) s it put walkers tens
     of posterior sds out (80 nats below the mode), and some were still walking in after a
     burn-in of 3 τ, their draws kept (PSIS-LOO then flagged 12 of 15 onsets of table2_h50).
-    Each walker is then pulled into the typical set (:func:`_pulled_in`). The start where
-    Laplace's method has no Gaussian to offer (:func:`laplace_ball`)."""
+    Each walker is then pulled into the typical set (:func:`_pulled_in`). Runs start so only
+    where Laplace's method has no Gaussian to offer (:func:`laplace_ball`)."""
     prior_spread = np.std(log_posterior.space.sample_prior(rng, 4000), axis=0)
     width = np.where(prior_spread > 0, 1e-4 * prior_spread, 1e-8)
     return _pulled_in(log_posterior, centre,
@@ -135,10 +135,10 @@ def laplace_ball(target: SamplerTarget, centre: NDArray, walkers: int,
     moves widen the ensemble by a factor per step, and 10⁴ is many factors), every one of
     them burn-in. Drawn from the posterior's own Gaussian they start at its width: on the
     README's roll, five seeds each, the exact pendulum's first walk with every effect present
-    (:func:`_present_walk`) ended after its least two chunks (100 steps, against 150), and the
-    runs took a median of 600, 937 and 640 steps for the exact pendulum, the small-angle
-    pendulum and the power law, against 697, 1014 and 708, the posteriors the same within
-    their Monte Carlo error.
+    (:func:`_present_walk`) ended after two chunks, the fewest it takes (100 steps, against
+    150), and the runs took a median of 600, 937 and 640 steps for the exact pendulum, the
+    small-angle pendulum and the power law, against 697, 1014 and 708, the posteriors the same
+    within their Monte Carlo error.
 
     Where the posterior is no Gaussian (a contact time piled against its slab's end) the
     Gaussian is wider than it along the columns that correlate with the edge's: α started 2.4
