@@ -11,9 +11,9 @@ recognised, its reader and its writer (:data:`ONSET_FORMATS`).
   onset's timing error ``sigma_s``, so that onsets edited in Audacity keep their weights in
   the fit (a faint onset's error is several times a loud one's); a label without it (one
   added by hand) has none but the fitted jitter.
-* ``instants``: a time-instants layer as Sonic Visualiser exports it, ``time,label`` with
-  no header (also a ``.csv``: told from ours by its first line); the labels are read as the
-  label track's are.
+* ``instants``: a time-instants layer as Sonic Visualiser exports it, ``time,label`` lines
+  under a ``TIME,LABEL`` header row or none (also a ``.csv``: told from ours by its first
+  line); the labels are read as the label track's are.
 * ``text``: one time per line, seconds; one roll numbered 0, 1, 2, …
 
 so that hand-made and third-party onset lists can be fitted too. A number may be written with
@@ -293,8 +293,7 @@ ONSET_FORMATS: dict[str, OnsetFormat] = {f.name: f for f in (
     OnsetFormat("labels", "Audacity label track", (".tsv", ".lab", ".labels"),
                 lambda first: "\t" in first, _read_labels, OnsetTable.to_labels),
     OnsetFormat("instants", "Sonic Visualiser time instants (time,label; header row or none)",
-                (),
-                _is_instants, _read_instants, _instants_text),
+                (), _is_instants, _read_instants, _instants_text),
     OnsetFormat("text", "one time per line", (".txt",), lambda first: True, _read_plain,
                 OnsetTable.to_text),
 )}
