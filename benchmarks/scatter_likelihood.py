@@ -44,6 +44,7 @@ def _module(path: Path, name: str):
     tree's package, whose interfaces it uses are unchanged)."""
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # where a dataclass of the module looks itself up
     spec.loader.exec_module(module)
     return module
 

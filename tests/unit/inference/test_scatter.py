@@ -346,6 +346,36 @@ def test_student_t_loo_terms_against_numerical_integration():
         assert terms[i] == pytest.approx(-np.log(area), abs=0.05)
 
 
+@pytest.mark.parametrize("outlier", [0.0, 3e-3])
+def test_student_t_modes_settle_from_either_start(outlier, monkeypatch):
+    """The mode Laplace's method expands about, for the whole roll from the default start
+    and for each roll less one onset from the whole roll's weights (the start LOO's terms
+    use): T0's equation Σ ψ(u) = 0 holds (ψ the t's score, −∂ ln t_ν/∂u), and ln p is that
+    of Newton's method run on to a millionth of the tolerance from the default start; an
+    onset 3 ms late lies far in the t's tail."""
+    from drumroll.inference import scatter
+    from drumroll.inference.scatter import _student_t_mode
+
+    residual, g, scale2 = _student_t_case(0.001, 1e-4, 4.0, outlier, 4)
+    spread = 0.001**2 * g @ g.T
+
+    def settled(r, s, c2, start=None):
+        log_like, _, _, u = _student_t_mode(r[None], s[None], c2[None], 4.0, start=start)
+        psi = 5.0 * u[0] / (4.0 * c2 + u[0] ** 2)
+        assert abs(psi.sum()) < 1e-4 * np.abs(psi).sum()
+        with monkeypatch.context() as patched:
+            patched.setattr(scatter, "LAPLACE_TOLERANCE", 1e-13)
+            patched.setattr(scatter, "LAPLACE_ITERATIONS", 200)
+            exact = _student_t_mode(r[None], s[None], c2[None], 4.0)[0]
+        assert log_like[0] == pytest.approx(exact[0], abs=1e-5)
+        return u
+
+    u = settled(residual, spread, scale2)
+    for i in range(residual.size):
+        keep = np.delete(np.arange(residual.size), i)
+        settled(residual[keep], spread[np.ix_(keep, keep)], scale2[keep], u[:, keep] ** 2)
+
+
 @pytest.mark.parametrize("law", ["constant", "speed"])
 def test_gaussian_noise_draws_have_the_covariance(law):
     """The replicated noise, drawn bounce by bounce along the walk: Σ's normal (with a bounce
