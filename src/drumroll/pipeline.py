@@ -19,7 +19,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, wait
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -699,11 +699,14 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
     every_draw: dict[str, Draws] = {}
     post_seconds = 0.0
 
-    def finish(model: str, output: tuple) -> None:
+    def finish(model: str, output: tuple, executor: Executor | None = None,
+               idle: Callable[[], int] | None = None) -> None:
         """Everything of a model that needs no other model (its draws, PSIS-LOO, adequacy,
         summaries and diagnostics on every draw, and the thinned draws that are stored), as
         soon as its fit is back: this process is otherwise idle while the others sample, and
-        only the comparison is left when the last one is back."""
+        only the comparison is left when the last one is back. ``executor``: the fits'
+        processes, ``idle()`` of them without a fit, to share LOO's Laplace estimates with (a
+        scattering restitution under Student-t noise: :func:`build_draws`)."""
         nonlocal post_seconds
         from drumroll.inference.adequacy import adequacy
         from drumroll.inference.comparison import loo
@@ -718,7 +721,8 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
         chain, evidence, check, fit_seconds = output
         log_posterior = posteriors[model]
         # The same generator as reported_draws: the stopping check saw these very numbers.
-        draws = build_draws(log_posterior, chain, np.random.default_rng(seeds[model]))
+        draws = build_draws(log_posterior, chain, np.random.default_rng(seeds[model]),
+                            executor=executor, idle=idle)
         fit = fits[model] = ModelFit(model, log_posterior, chain, draws, evidence, check,
                                      fit_seconds)
         loos[model] = loo(draws)
@@ -927,6 +931,10 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                     _while_sampling(listener, onsets, recording)
                 screened = False
 
+                def idle() -> int:
+                    """The processes without a fit to run (they share LOO's terms)."""
+                    return max(0, workers - sum(not f.done() for f in pending))
+
                 def take(done) -> None:
                     """Take in the fits that are back; the main model's numberings are
                     fitted once it and every screen are back."""
@@ -937,7 +945,7 @@ def _fit_models(config: Config, settings: EstimateSettings, fitted: FittedRoll,
                             bar.advance(note=f"{task} missed")
                             check_numbering()
                             continue
-                        finish(task, future.result())
+                        finish(task, future.result(), executor=pool, idle=idle)
                         say(f"{task}: done")
                         bar.advance(note=task)
                         if task == config.model and screened:

@@ -31,6 +31,9 @@ from drumroll.physics.geometry import effective_height
 from drumroll.quantities import BY_NAME, DERIVED, DRAW_DERIVED
 
 if TYPE_CHECKING:  # ArviZ takes a second to import: only converting to InferenceData needs it
+    from collections.abc import Callable
+    from concurrent.futures import Executor
+
     import arviz as az
 
 
@@ -84,8 +87,12 @@ def parameter_draws(log_posterior: LogPosterior, samples: NDArray, rng: np.rando
 
 
 def build_draws(log_posterior: LogPosterior, chain: Chain, rng: np.random.Generator,
-                n_prior: int = 2000) -> Draws:
-    """Every group of one model's fit (see the module docstring), as :class:`Draws`."""
+                n_prior: int = 2000, executor: Executor | None = None,
+                idle: Callable[[], int] | None = None) -> Draws:
+    """Every group of one model's fit (see the module docstring), as :class:`Draws`; with an
+    ``executor``, LOO's terms under Student-t noise with a scattering restitution are shared
+    with its processes as they fall idle (``idle()`` of them:
+    :func:`~drumroll.inference.posterior.scatter_pointwise_and_noise`, the same numbers)."""
     data = log_posterior.data
     samples = chain.samples
     variables, impacts, t0 = parameter_draws(log_posterior, samples, rng)
@@ -94,7 +101,8 @@ def build_draws(log_posterior: LogPosterior, chain: Chain, rng: np.random.Genera
     scale = np.sqrt(np.asarray(values["jitter"])[:, None] ** 2 + data.sigmas**2)
     if log_posterior.scatters:  # correlated onsets: conditional terms and noise from Σ
         pointwise, noise = scatter_pointwise_and_noise(log_posterior, flat_samples,
-                                                       _flat(impacts), rng)
+                                                       _flat(impacts), rng, executor=executor,
+                                                       idle=idle)
     elif log_posterior.noise == "gaussian":  # T0 marginalised: conditional terms (see .loo)
         pointwise = conditional_pointwise(data, _flat(impacts),
                                           np.broadcast_to(values["jitter"], t0.size))

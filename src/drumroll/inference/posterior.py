@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,6 +32,10 @@ from drumroll.inference.scatter import (
     student_t_scatter_noise,
 )
 from drumroll.inference.space import SCATTER, ParameterSpace
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from concurrent.futures import Executor, Future
 
 NOISE_MODELS = ("gaussian", "student-t")
 #: Impact times τ_0 … τ_K after the first (every bounce up to the last observed one,
@@ -194,6 +199,16 @@ class LogPosterior:
         residual = self.data.times - self.data.at_onsets(impacts)
         return residual, jitter[:, None] ** 2 + self.data.sigmas**2
 
+    def _student_t_spread(self, x: NDArray, impacts: NDArray
+                          ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """What Laplace's method under Student-t noise takes for the rows of ``x`` whose
+        impacts are ``impacts``: the residuals, S (the scatter's part of Σ), the t's squared
+        scales and ν."""
+        _, covariance, _ = self.onset_covariance(x)
+        values = self.space.values(x)
+        residual, scale2 = self._student_t_parts(values, impacts)
+        return residual, scatter_spread(covariance, scale2), scale2, values["nu"]
+
     def log_likelihood(self, x: NDArray, impacts: Impacts | None = None) -> NDArray:
         """Log-likelihood per row of ``x`` (T0 marginalised for Gaussian noise and wherever the
         restitution scatters); −inf where the physics forbids the point.
@@ -315,7 +330,9 @@ def _scatters(prior: Distribution | None) -> bool:
 
 
 def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts: NDArray,
-                                rng: np.random.Generator, chunk: int = 512
+                                rng: np.random.Generator, chunk: int = 512,
+                                executor: Executor | None = None,
+                                idle: Callable[[], int] | None = None
                                 ) -> tuple[NDArray, NDArray]:
     """LOO's conditional terms log p(t_i | t_{−i}, θ) and one draw of the onsets' noise per
     row, under a scattering restitution, in chunks of rows: under Gaussian noise along the
@@ -324,22 +341,47 @@ def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts
     method from Σ (:mod:`~drumroll.inference.scatter`; the chunks keep thousands of draws of
     a long roll from holding all their n × n matrices at once).
 
-    ``impacts`` are the rows' τ_0 … τ_K (from the full forward model)."""
-    data, space = log_posterior.data, log_posterior.space
+    ``impacts`` are the rows' τ_0 … τ_K (from the full forward model). Under Student-t noise,
+    a Laplace estimate per row and onset, the chunks are shared with the processes of an
+    ``executor`` as they fall idle (``idle()``: how many are): each idle one is given the
+    next chunk from the front, while this process takes them from the back. The terms are
+    the same wherever they were computed, and the noise is drawn here, chunk by chunk, as
+    without it."""
+    data = log_posterior.data
     pointwise = np.empty((x.shape[0], data.n_onsets))
     noise = np.empty_like(pointwise)
-    for start in range(0, x.shape[0], chunk):
-        rows = slice(start, start + chunk)
-        if log_posterior.noise == "gaussian":
+    chunks = [slice(start, start + chunk) for start in range(0, x.shape[0], chunk)]
+    if log_posterior.noise == "gaussian":
+        for rows in chunks:
             w = log_posterior.walk(x[rows])
             pointwise[rows] = scatter_pointwise(data, impacts[rows], w.slopes, w.jitter,
                                                 w.scatter, w.propagation)
             noise[rows] = scatter_noise(data, w.slopes, w.jitter, w.scatter, w.propagation, rng)
-            continue
-        _, covariance, _ = log_posterior.onset_covariance(x[rows])
-        values = space.values(x[rows])
-        residual, scale2 = log_posterior._student_t_parts(values, impacts[rows])
-        spread = scatter_spread(covariance, scale2)
-        pointwise[rows] = student_t_laplace_pointwise(residual, spread, scale2, values["nu"])
-        noise[rows] = student_t_scatter_noise(spread, scale2, values["nu"], rng)
+        return pointwise, noise
+    given: dict[int, Future] = {}
+    front, back = 0, len(chunks) - 1
+    while front <= back:
+        if executor is not None and idle is not None:
+            running = sum(not future.done() for future in given.values())
+            for _ in range(max(0, idle() - running)):
+                if front >= back:  # the last one left is this process's
+                    break
+                given[front] = executor.submit(student_t_pointwise, log_posterior,
+                                               x[chunks[front]], impacts[chunks[front]])
+                front += 1
+        rows = chunks[back]
+        pointwise[rows] = student_t_pointwise(log_posterior, x[rows], impacts[rows])
+        back -= 1
+    for i, future in given.items():
+        pointwise[chunks[i]] = future.result()
+    for rows in chunks:
+        _, spread, scale2, nu = log_posterior._student_t_spread(x[rows], impacts[rows])
+        noise[rows] = student_t_scatter_noise(spread, scale2, nu, rng)
     return pointwise, noise
+
+
+def student_t_pointwise(log_posterior: LogPosterior, x: NDArray, impacts: NDArray) -> NDArray:
+    """LOO's terms under Student-t noise with a scattering restitution, per row of ``x``
+    (:func:`~drumroll.inference.scatter.student_t_laplace_pointwise`); a function of its
+    arguments alone, so that another process can compute a chunk of them."""
+    return student_t_laplace_pointwise(*log_posterior._student_t_spread(x, impacts))

@@ -218,6 +218,34 @@ def test_student_t_batch_one_point_and_reference_paths_agree(model):
     assert np.nanmax(batch) <= np.nanmax(near_batch) + 1.0
 
 
+def test_student_t_loo_terms_shared_with_other_processes_are_the_same():
+    """LOO's terms under Student-t noise computed partly by another process (the fits'
+    processes once idle) are those computed here, and the noise drawn with them too."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from drumroll.inference.posterior import scatter_pointwise_and_noise
+
+    posterior = _posterior("powerlaw", noise="student-t")
+    x = posterior.space.sample_prior(np.random.default_rng(3), 1500)
+    x = x[np.argsort(posterior(x))[-200:]]  # the best of them, near the onsets
+    impacts = posterior.space.impact_times(posterior.space.values(x), posterior.data.n_flights)
+    alone = scatter_pointwise_and_noise(posterior, x, impacts, np.random.default_rng(4), 32)
+    given = []
+
+    class Counted(ProcessPoolExecutor):
+        def submit(self, *args, **kwargs):
+            given.append(args[2].shape[0])
+            return super().submit(*args, **kwargs)
+
+    with Counted(max_workers=1) as pool:
+        shared = scatter_pointwise_and_noise(posterior, x, impacts, np.random.default_rng(4),
+                                             32, executor=pool, idle=lambda: 1)
+    assert 1 <= len(given) < 7  # some of the 7 chunks given, the last one kept here
+    np.testing.assert_array_equal(shared[0], alone[0])
+    np.testing.assert_array_equal(shared[1], alone[1])
+    assert np.isfinite(alone[0]).all()
+
+
 def _student_t_case(scatter: float, jitter: float, nu: float, outlier: float, seed: int
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Onsets less the noise-free impacts (T0 = 12.3 ms) of a power-law roll of 15 onsets
