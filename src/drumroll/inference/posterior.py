@@ -374,7 +374,7 @@ def scatter_pointwise_and_noise(log_posterior: LogPosterior, x: NDArray, impacts
         back -= 1
     for i, future in given.items():
         pointwise[chunks[i]] = future.result()
-    for rows in chunks:
+    for rows in chunks:  # S formed again, not kept: a long roll's would not fit at once
         _, spread, scale2, nu = log_posterior._student_t_spread(x[rows], impacts[rows])
         noise[rows] = student_t_scatter_noise(spread, scale2, nu, rng)
     return pointwise, noise
