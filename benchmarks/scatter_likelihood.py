@@ -92,28 +92,35 @@ def per_call(against: str) -> None:
                       f"{ours / theirs:6.2f}  {difference:.1e}")
 
 
-def end_to_end(against: str, repeats: int) -> None:
-    text = (ROOT / "data" / "pingpong.toml").read_text()
+def end_to_end(recording: str, against: str, repeats: int) -> None:
+    """``estimate data/<recording>`` with its bundled config and the scatter's prior line
+    added, both trees alternately (:func:`estimate.main_command`)."""
+    source = ROOT / "data" / recording
+    text = source.with_suffix(".toml").read_text()
     with_scatter = text.replace("[priors]\n", f"[priors]\n{SCATTER_LINE}\n", 1)
     with tempfile.TemporaryDirectory() as tmp:
-        config = Path(tmp) / "pingpong_scatter.toml"
+        config = Path(tmp) / f"{source.stem}_scatter.toml"
         config.write_text(with_scatter)
-        print(f"\nestimate data/pingpong.wav with {SCATTER_LINE}")
-        main_command(ROOT / "data" / "pingpong.wav", config, repeats, against, goal=None)
+        print(f"\nestimate data/{recording} with {SCATTER_LINE}")
+        main_command(source, config, repeats, against, goal=None)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--against", default=BEFORE,
-                        help=f"git revision to compare with (default {BEFORE})")
-    parser.add_argument("--repeats", type=int, default=3, help="estimate runs of each tree")
+def benchmark_main(description: str, per_call, recording: str, before: str,
+                   repeats: int) -> None:
+    """The command line of a scatter benchmark: ``per_call(against)``, then
+    :func:`end_to_end` on ``recording`` unless ``--skip-estimate``."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--against", default=before,
+                        help=f"git revision to compare with (default {before})")
+    parser.add_argument("--repeats", type=int, default=repeats,
+                        help="estimate runs of each tree")
     parser.add_argument("--skip-estimate", action="store_true",
                         help="only the per-call costs")
     args = parser.parse_args()
     per_call(args.against)
     if not args.skip_estimate:
-        end_to_end(args.against, args.repeats)
+        end_to_end(recording, args.against, args.repeats)
 
 
 if __name__ == "__main__":
-    main()
+    benchmark_main(__doc__.splitlines()[0], per_call, "pingpong.wav", BEFORE, 3)

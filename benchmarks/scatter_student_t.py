@@ -22,9 +22,7 @@ Run: ``python benchmarks/scatter_student_t.py [--against REV] [--repeats 2] [--s
 
 from __future__ import annotations
 
-import argparse
 import sys
-import tempfile
 import timeit
 from functools import partial
 from pathlib import Path
@@ -32,12 +30,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from estimate import main_command, worktree  # this folder's benchmarks
-from scatter_likelihood import SCATTER_LINE, _module
+from estimate import worktree  # this folder's benchmarks
+from scatter_likelihood import _module, benchmark_main
 
 from drumroll.inference import scatter as this
 
-ROOT = Path(__file__).resolve().parents[1]
 #: The code before Laplace's method was made faster (powers as products, a line search that
 #: takes a rise within its tolerance as none, LOO's terms started from the whole roll's
 #: weights).
@@ -88,28 +85,5 @@ def per_call(against: str) -> None:
                 print(f"  {'  largest term (nat)':34s} {a.max():10.2f} {b.max():10.2f}")
 
 
-def end_to_end(against: str, repeats: int) -> None:
-    text = (ROOT / "data" / "table2_h80.toml").read_text()
-    with_scatter = text.replace("[priors]\n", f"[priors]\n{SCATTER_LINE}\n", 1)
-    with tempfile.TemporaryDirectory() as tmp:
-        config = Path(tmp) / "table2_h80_scatter.toml"
-        config.write_text(with_scatter)
-        print(f"\nestimate data/table2_h80.flac with {SCATTER_LINE}")
-        main_command(ROOT / "data" / "table2_h80.flac", config, repeats, against, goal=None)
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--against", default=BEFORE,
-                        help=f"git revision to compare with (default {BEFORE})")
-    parser.add_argument("--repeats", type=int, default=2, help="estimate runs of each tree")
-    parser.add_argument("--skip-estimate", action="store_true",
-                        help="only the per-call costs")
-    args = parser.parse_args()
-    per_call(args.against)
-    if not args.skip_estimate:
-        end_to_end(args.against, args.repeats)
-
-
 if __name__ == "__main__":
-    main()
+    benchmark_main(__doc__.splitlines()[0], per_call, "table2_h80.flac", BEFORE, 2)
